@@ -1,0 +1,30 @@
+# Robotics II Lab. `make run` sets up and starts the app; `make test` sets up and runs every test.
+PY ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+
+.PHONY: setup browser run test bench screenshots
+
+$(BIN)/python:
+	$(PY) -m venv $(VENV)
+
+setup: $(BIN)/python
+	$(BIN)/pip install -q -e '.[test]'
+
+# Debian's chromium for the headless browser tests (Playwright's own download does not work here).
+browser:
+	@test -x /usr/bin/chromium || { \
+	  if [ "$$(id -u)" = 0 ]; then SUDO=""; else SUDO=sudo; fi; \
+	  $$SUDO apt-get update -q && $$SUDO apt-get install -y -q --no-install-recommends chromium; }
+
+run: setup
+	$(BIN)/python -m app
+
+test: setup browser
+	$(BIN)/python -m pytest -q
+
+bench: setup
+	$(BIN)/python -m benchmarks
+
+screenshots: setup browser
+	$(BIN)/python -m app screenshot --all-docs

@@ -1,0 +1,96 @@
+"""``python -m app derive ROBOT [--json] [--known l1,g0] [--steps]``: the symbolic model of a robot.
+
+JSON output (a stable contract): one object with keys
+  "robot", "q" (coordinate names), "dq" (velocity symbol names), "params" (parameter names),
+  "M" (rows), "C" (rows), "c", "g", "spring", "friction" (lists), "christoffel" (one matrix per
+  coordinate, c_i = dq^T C_i dq), "Y" (rows), "a" (list), "Y_r" (rows, adaptive regressor with
+  reference symbols dq1_r, ddq1_r ...), "known" (parameters treated as known in Y).
+Every entry is a string that ``sympy.sympify`` parses back with exactly the file's symbol names.
+"""
+from __future__ import annotations
+
+import json
+import sys
+
+import sympy as sp
+
+NAME = "derive"
+HELP = "derive the dynamic model of a robot (shipped name or robot file)"
+
+
+def add_arguments(p):
+    p.add_argument("robot", help="a shipped robot's name (see `python -m app robots`) or a path to a robot file")
+    p.add_argument("--json", action="store_true", help="print one JSON object (stable format)")
+    p.add_argument("--known", default=None,
+                   help="comma-separated parameters treated as known in the regressor (default: lengths, gravity, angles)")
+    p.add_argument("--steps", action="store_true", help="also print the derivation steps")
+    p.add_argument("--no-cache", action="store_true", help="derive from scratch")
+
+
+def _rows(m: sp.Matrix):
+    return [[str(m[i, j]) for j in range(m.cols)] for i in range(m.rows)]
+
+
+def _vec(m: sp.Matrix):
+    return [str(e) for e in m]
+
+
+def model_json(robot, dyn) -> dict:
+    par = dyn.parametrization
+    return {
+        "robot": robot.name,
+        "q": list(robot.coordinates),
+        "dq": [str(s) for s in robot.dq],
+        "params": list(robot.parameters),
+        "M": _rows(dyn.M), "C": _rows(dyn.C), "c": _vec(dyn.c), "g": _vec(dyn.g),
+        "spring": _vec(dyn.spring), "friction": _vec(dyn.friction),
+        "christoffel": [_rows(Ci) for Ci in dyn.christoffel],
+        "Y": _rows(par.Y), "a": [str(e) for e in par.a], "Y_r": _rows(par.Y_ref), "known": par.known,
+    }
+
+
+def run(args) -> int:
+    from app.core.dynamics import derive
+    from app.core.errors import UserError
+    from app.core.robot import load_robot
+
+    robot = load_robot(args.robot)
+    known = None
+    if args.known is not None:
+        known = [k.strip() for k in args.known.split(",") if k.strip()]
+        bad = [k for k in known if k not in robot.parameters]
+        if bad:
+            raise UserError(f"--known: unknown parameter(s) {bad}; the robot has {list(robot.parameters)}")
+    dyn = derive(robot, use_cache=not args.no_cache, known=known)
+    if args.json:
+        json.dump(model_json(robot, dyn), sys.stdout)
+        sys.stdout.write("\n")
+        return 0
+    out = sys.stdout
+    print(f"{robot.title}  [{robot.name}]", file=out)
+    print(f"coordinates q = {list(robot.coordinates)}", file=out)
+    print("\nM(q) =", file=out)
+    print(sp.pretty(dyn.M, use_unicode=True), file=out)
+    print("\nc(q, dq) =", file=out)
+    print(sp.pretty(dyn.c, use_unicode=True), file=out)
+    print("\nC(q, dq) =", file=out)
+    print(sp.pretty(dyn.C, use_unicode=True), file=out)
+    print("\ng(q) =", file=out)
+    print(sp.pretty(dyn.g, use_unicode=True), file=out)
+    if robot.springs:
+        print("\nspring terms k(q) =", file=out)
+        print(sp.pretty(dyn.spring, use_unicode=True), file=out)
+    if robot.viscous or robot.coulomb:
+        print("\nfriction =", file=out)
+        print(sp.pretty(dyn.friction, use_unicode=True), file=out)
+    par = dyn.parametrization
+    print(f"\nlinear parametrization Y a = tau with {par.count} coefficients (known: {', '.join(par.known) or 'none'}):", file=out)
+    for i, a in enumerate(par.a, 1):
+        print(f"  a{i} = {a}", file=out)
+    print("Y =", file=out)
+    print(sp.pretty(par.Y, use_unicode=True), file=out)
+    if args.steps:
+        print("\nsteps:", file=out)
+        for k, st in enumerate(dyn.steps, 1):
+            print(f"{k:2d}. {st.title}: {st.text}", file=out)
+    return 0

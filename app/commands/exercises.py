@@ -1,0 +1,21 @@
+"""``python -m app exercises [--json]``: the shipped exercises with their topics and robots."""
+NAME = "exercises"
+HELP = "list the shipped exercises"
+
+
+def add_arguments(p):
+    p.add_argument("--json", action="store_true")
+
+
+def run(args) -> int:
+    import json
+
+    from app.core.exercise import list_exercises
+
+    rows = [{"id": e.id, "title": e.title, "robot": e.robot, "topics": e.topics} for e in list_exercises()]
+    if args.json:
+        print(json.dumps(rows))
+        return 0
+    for r in rows:
+        print(f"{r['id']:<22} {r['robot']:<24} {', '.join(r['topics'])}  — {r['title']}")
+    return 0

@@ -1,0 +1,93 @@
+"""Comparison of engine results with expected answers (used by the tests and by variants).
+
+Symbolic answers are equal when the exact canonical form of their difference is zero, or, for
+expressions outside that form, when they agree at 20 random points to 1e-9. Numbers compare to a
+tolerance.
+
+>>> same("sin(q)**2 + cos(q)**2", 1)
+True
+>>> same([["a", "b"]], [["a", "b + 1"]])
+False
+"""
+from __future__ import annotations
+
+import math
+import random
+from typing import Any, Mapping, Optional
+
+import numpy as np
+import sympy as sp
+
+from .expressions import parse_expression, symbol
+from .trig import TrigPoly
+
+
+def as_sympy(value, definitions: Optional[Mapping[str, Any]] = None):
+    """Expected values (strings, numbers, nested lists) -> sympy objects with real symbols."""
+    defs = {}
+    for name, text in (definitions or {}).items():
+        defs[name] = as_sympy(text, {k: v for k, v in defs.items()})
+    if isinstance(value, (list, tuple)):
+        items = [as_sympy(v, definitions) for v in value]
+        if items and all(isinstance(i, sp.MatrixBase) for i in items):
+            return sp.Matrix([list(i) for i in items])
+        return sp.Matrix(items)
+    if isinstance(value, (sp.Basic, sp.MatrixBase)):
+        return value
+    if isinstance(value, (int, float)):
+        return sp.sympify(value)
+    return parse_expression(str(value), extra=defs)
+
+
+def _realify(expr):
+    """Replace plain symbols by the lab's real symbols of the same name."""
+    expr = sp.sympify(expr)
+    return expr.xreplace({s: symbol(s.name) for s in expr.free_symbols if isinstance(s, sp.Symbol)})
+
+
+def _scalar_same(a, b, tol=1e-9) -> bool:
+    d = sp.expand(_realify(a) - _realify(b))
+    if d == 0:
+        return True
+    try:
+        if TrigPoly.from_expr(d).is_zero():
+            return True
+    except Exception:
+        pass
+    ra, rb = _realify(a), _realify(b)
+    syms = sorted(d.free_symbols | ra.free_symbols | rb.free_symbols, key=lambda s: s.name)
+    f = sp.lambdify(syms, d, "math")
+    rng = random.Random(7)
+    scale_f = sp.lambdify(syms, sp.Abs(ra) + sp.Abs(rb) + 1, "math")
+    for _ in range(20):
+        vals = [rng.uniform(0.3, 1.7) for _ in syms]
+        try:
+            v, s = f(*vals), scale_f(*vals)
+        except (ZeroDivisionError, ValueError):
+            continue
+        if abs(v) > tol * s:
+            return False
+    return True
+
+
+def same(expected, computed, tol: float = 1e-9, definitions=None) -> bool:
+    """True when the computed answer equals the expected one (symbolic or numeric)."""
+    e = as_sympy(expected, definitions)
+    c = computed
+    if isinstance(c, np.ndarray):
+        c = c.tolist() if c.ndim else float(c)
+    c = as_sympy(c)
+    if isinstance(e, sp.MatrixBase) or isinstance(c, sp.MatrixBase):
+        if not (isinstance(e, sp.MatrixBase) and isinstance(c, sp.MatrixBase)):
+            return False
+        if e.shape != c.shape:
+            if e.shape == c.shape[::-1] and 1 in e.shape:
+                e = e.T
+            else:
+                return False
+        return all(same(e[i], c[i], tol) for i in range(len(e)))
+    e, c = sp.sympify(e), sp.sympify(c)
+    if e.is_number and c.is_number:
+        ev, cv = complex(e), complex(c)
+        return abs(ev - cv) <= tol * max(1.0, abs(ev))
+    return _scalar_same(e, c)

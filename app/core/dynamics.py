@@ -1,0 +1,526 @@
+"""Symbolic Lagrangian dynamics of a RobotModel, with the ordered steps that produce it.
+
+    M(q) q'' + C(q, q') q' + g(q) + k(q) + F_v q' + F_c sign(q') = tau
+
+``derive(robot)`` returns a ``Dynamics`` object holding every intermediate quantity (CoM positions
+and velocities, link energies, M, Christoffel symbols, C, c, g, spring and friction terms, a minimal
+linear parametrization Y a and the adaptive regressor Y_r) and the steps. All simplification goes
+through the exact canonical form of app.core.trig, so results are compact and exact.
+
+>>> from app.core.robot import load_robot
+>>> dyn = derive(load_robot("planar_2r"))
+>>> dyn.M[1, 1]
+I2 + d2**2*m2
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+import pickle
+import random
+import threading
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+import sympy as sp
+
+from .kinematics import Kinematics
+from .robot import KNOWN_KINDS, RobotModel
+from .steps import Step, to_latex
+from .trig import TrigPoly
+
+ENGINE_VERSION = "1"
+CACHE_DIR = Path(os.environ.get("R2LAB_CACHE", Path(__file__).resolve().parents[2] / ".cache")) / "derivations"
+
+Progress = Optional[Callable[[float, str], None]]
+
+
+@dataclass
+class Parametrization:
+    """tau = Y(q, q', q'') a with a minimal set of dynamic coefficients a, and the adaptive
+    regressor Y_r(q, q', q'_r, q''_r) with Y_r a = M q''_r + C q'_r + g + k + F_v q'_r."""
+    Y: sp.Matrix
+    a: List[sp.Expr]
+    Y_ref: sp.Matrix
+    known: List[str]
+    unknown: List[str]
+
+    @property
+    def count(self) -> int:
+        return len(self.a)
+
+
+@dataclass
+class Dynamics:
+    robot_name: str
+    content_hash: str
+    coordinates: List[str]
+    parameters: List[str]
+    com_positions: Dict[str, sp.Matrix]
+    com_velocities: Dict[str, sp.Matrix]
+    angular_velocities: Dict[str, sp.Matrix]       # in body frames
+    kinetic: Dict[str, sp.Expr]                    # per body (and motor)
+    potential: Dict[str, sp.Expr]                  # per body (gravity) and per spring
+    M: sp.Matrix
+    christoffel: List[sp.Matrix]                   # C_i with c_i = q'^T C_i q'
+    C: sp.Matrix
+    c: sp.Matrix
+    g: sp.Matrix
+    spring: sp.Matrix
+    friction: sp.Matrix
+    parametrization: Parametrization
+    steps: List[Step] = field(default_factory=list)
+
+    @property
+    def q(self):
+        from .expressions import symbol
+        return [symbol(c) for c in self.coordinates]
+
+    @property
+    def dq(self):
+        from .expressions import symbol
+        return [symbol("d" + c) for c in self.coordinates]
+
+    @property
+    def ddq(self):
+        from .expressions import symbol
+        return [symbol("dd" + c) for c in self.coordinates]
+
+    def equations(self) -> sp.Matrix:
+        """Left-hand side M q'' + c + g + k + friction (equal to the generalized forces)."""
+        return (self.M * sp.Matrix(self.ddq) + self.c + self.g + self.spring + self.friction)
+
+
+# ------------------------------------------------------------------------------ helpers
+def _tp(expr) -> TrigPoly:
+    return TrigPoly.from_expr(expr)
+
+
+def _expr(tp: TrigPoly) -> sp.Expr:
+    return pretty(tp)
+
+
+def pretty(tp: TrigPoly) -> sp.Expr:
+    """A compact, student-like sympy expression of a canonical trigonometric polynomial.
+
+    Terms are grouped by basis function; double angles of one angle are written with squares
+    (cos(2x) -> 1 - 2 sin(x)^2) when that makes the expression shorter."""
+    base = tp.to_expr(factor_coefficients=True)
+    if not any(max(abs(n) for _, n in freq) > 1 for (freq, _k) in tp.terms if freq):
+        return base
+    alt = _square_form(tp)
+    return alt if sp.count_ops(alt) < sp.count_ops(base) else base
+
+
+def _square_form(tp: TrigPoly) -> sp.Expr:
+    out = []
+    for (freq, kind), coeff in tp.terms.items():
+        if len(freq) == 1 and freq[0][1] == 2:
+            x = freq[0][0]
+            if kind == "c":
+                out.append(coeff - 2 * coeff * sp.sin(x) ** 2)
+            else:
+                out.append(2 * coeff * sp.sin(x) * sp.cos(x))
+        else:
+            out.append(coeff * TrigPoly.basis_function((freq, kind)))
+    return sp.collect(sp.expand(sp.Add(*out)), [sp.sin(s) ** 2 for s in tp_angles(tp)], func=sp.factor_terms)
+
+
+def tp_angles(tp: TrigPoly):
+    out = set()
+    for (freq, _k) in tp.terms:
+        out |= {s for s, _ in freq}
+    return sorted(out, key=lambda s: s.name)
+
+
+def _matrix(rows) -> sp.Matrix:
+    return sp.Matrix([[_expr(e) for e in row] for row in rows])
+
+
+# ------------------------------------------------------------------------------ derivation
+_memory: Dict[Tuple[str, str], Dynamics] = {}
+_lock = threading.Lock()
+
+
+def derive(robot: RobotModel, progress: Progress = None, use_cache: bool = True,
+           known: Optional[Sequence[str]] = None) -> Dynamics:
+    """Derive (or fetch from the memory/disk cache) the dynamic model of a robot.
+
+    ``known`` lists the parameters treated as known data in the linear parametrization (default:
+    every parameter of kind length, gravity or angle)."""
+    key_known = ",".join(sorted(known)) if known is not None else "*"
+    key = (robot.content_hash or repr(robot), key_known)
+    with _lock:
+        if use_cache and key in _memory:
+            return _memory[key]
+    path = CACHE_DIR / f"{hashlib.sha256(('|'.join(key) + ENGINE_VERSION).encode()).hexdigest()[:32]}.pkl"
+    if use_cache and robot.content_hash and path.exists():
+        try:
+            with path.open("rb") as fh:
+                dyn = pickle.load(fh)
+            with _lock:
+                _memory[key] = dyn
+            return dyn
+        except Exception:   # a stale or broken cache file is simply recomputed
+            pass
+    dyn = _Deriver(robot, progress, known).run()
+    if use_cache:
+        with _lock:
+            _memory[key] = dyn
+        if robot.content_hash:
+            try:
+                CACHE_DIR.mkdir(parents=True, exist_ok=True)
+                tmp = path.with_suffix(f".{os.getpid()}.tmp")
+                with tmp.open("wb") as fh:
+                    pickle.dump(dyn, fh)
+                tmp.replace(path)
+            except OSError:
+                pass
+    return dyn
+
+
+class _Deriver:
+    def __init__(self, robot: RobotModel, progress: Progress, known: Optional[Sequence[str]]):
+        self.robot = robot
+        self.kin = Kinematics(robot)
+        self.q, self.dq, self.ddq = robot.q, robot.dq, robot.ddq
+        self.n = robot.n
+        self.progress = progress or (lambda fraction, message: None)
+        self.steps: List[Step] = []
+        if known is None:
+            known = [p.name for p in robot.parameters.values() if p.kind in KNOWN_KINDS]
+        unknown_names = set(known) - set(robot.parameters)
+        if unknown_names:
+            raise ValueError(f"unknown parameter(s) {sorted(unknown_names)} in 'known'")
+        self.known = list(known)
+
+    def L(self, expr) -> str:
+        return to_latex(expr, self.robot.coordinates)
+
+    def step(self, title, latex, text="", bodies=(), joints=()):
+        hl = {}
+        if bodies:
+            hl["bodies"] = list(bodies)
+        if joints:
+            hl["joints"] = list(joints)
+        self.steps.append(Step(title, latex, text, hl))
+
+    # -------------------------------------------------------------- main
+    def run(self) -> Dynamics:
+        robot, n = self.robot, self.n
+        self.progress(0.05, "kinematics")
+        positions, velocities, omegas, kinetic, potential = {}, {}, {}, {}, {}
+        M_tp = [[TrigPoly() for _ in range(n)] for _ in range(n)]
+        U_tp = TrigPoly()
+        dq = sp.Matrix(self.dq)
+        self.step("Generalized coordinates",
+                  r"q = " + self.L(sp.Matrix(self.q)) + r",\quad \dot q = " + self.L(dq),
+                  "The configuration is described by these coordinates; the model follows from the "
+                  "Lagrangian L = T - U.")
+        gvec = robot.gravity
+        for idx, body in enumerate(robot.bodies):
+            self.progress(0.05 + 0.45 * idx / max(1, len(robot.bodies)), f"energy of {body.name}")
+            p = self.kin.com_position(body.name)
+            Jv = self.kin.point_jacobian(body.name, body.com)
+            v = (Jv * dq).applyfunc(sp.expand)
+            Jw = self.kin.angular_jacobian(body.name, in_body_frame=True)
+            w = (Jw * dq).applyfunc(sp.expand)
+            positions[body.name], velocities[body.name], omegas[body.name] = p, v, w
+            Jv_tp = [[_tp(Jv[r, k]) for k in range(n)] for r in range(3)]
+            Jw_tp = [[_tp(Jw[r, k]) for k in range(n)] for r in range(3)]
+            Mi = [[TrigPoly() for _ in range(n)] for _ in range(n)]
+            I = body.inertia
+            for j in range(n):
+                for k in range(j, n):
+                    acc = TrigPoly()
+                    if body.mass != 0:
+                        for r in range(3):
+                            if Jv_tp[r][j].terms and Jv_tp[r][k].terms:
+                                acc = acc + (Jv_tp[r][j] * Jv_tp[r][k]).scale(body.mass)
+                    for r in range(3):
+                        for s in range(3):
+                            if I[r, s] != 0 and Jw_tp[r][j].terms and Jw_tp[s][k].terms:
+                                acc = acc + (Jw_tp[r][j] * Jw_tp[s][k]).scale(I[r, s])
+                    Mi[j][k] = acc.expand()
+                    if k != j:
+                        Mi[k][j] = Mi[j][k]
+            Ti = TrigPoly()
+            for j in range(n):
+                for k in range(n):
+                    if Mi[j][k].terms:
+                        Ti = Ti + Mi[j][k].scale(dq[j] * dq[k] / 2)
+            kinetic[body.name] = _expr(Ti.expand())
+            for j in range(n):
+                for k in range(n):
+                    M_tp[j][k] = M_tp[j][k] + Mi[j][k]
+            Ui = TrigPoly()
+            if body.mass != 0 and any(e != 0 for e in gvec):
+                Ui = _tp(-body.mass * (gvec.T * p)[0])
+            potential[body.name] = _expr(Ui)
+            U_tp = U_tp + Ui
+            label = body.name
+            text = (f"CoM of {label}: position, velocity, and angular velocity in its own frame; "
+                    f"then T = 1/2 m |v_c|^2 + 1/2 omega^T I omega.")
+            latex = (rf"p_{{c,{label}}} = {self.L(p)},\quad v_{{c,{label}}} = {self.L(v)},\quad "
+                     rf"\omega_{{{label}}} = {self.L(w)}")
+            self.step(f"Kinematics of {label}", latex, "Position of the centre of mass (base frame), its "
+                      "velocity as the time derivative, and the link's angular velocity in its own frame.",
+                      bodies=[label])
+            self.step(f"Kinetic energy of {label}", rf"T_{{{label}}} = {self.L(kinetic[label])}", text,
+                      bodies=[label])
+        # motors (rotor inertias of elastic joints)
+        for cname, inertia in robot.motor_inertias.items():
+            k = robot.coordinates.index(cname)
+            M_tp[k][k] = M_tp[k][k] + TrigPoly.constant(inertia)
+            kinetic[f"motor {cname}"] = inertia * dq[k] ** 2 / 2
+            self.step(f"Kinetic energy of the motor on {cname}",
+                      rf"T_{{m}} = {self.L(kinetic[f'motor {cname}'])}",
+                      "Rotor inertia (reduced model: only the rotor's own spin counts).")
+        M_tp = [[e.expand() for e in row] for row in M_tp]
+        self.progress(0.5, "inertia matrix")
+        M = _matrix(M_tp)
+        self.step("Inertia matrix", rf"M(q) = {self.L(M)}",
+                  "Collect T = 1/2 q'^T M(q) q'; M is symmetric and positive definite.",
+                  bodies=[b.name for b in robot.bodies])
+
+        # springs
+        Us_tp = TrigPoly()
+        for spring in robot.springs:
+            if spring.expr is not None:
+                Ue = _tp(spring.stiffness * (spring.expr - spring.rest) ** 2 / 2)
+            else:
+                (ba, pa), (bb, pb) = spring.points
+                d = self.kin.point_position(ba, pa) - self.kin.point_position(bb, pb)
+                Ue = _tp(spring.stiffness * (d.T * d)[0] / 2)
+            potential[spring.name] = _expr(Ue)
+            Us_tp = Us_tp + Ue
+            self.step(f"Elastic energy of {spring.name}", rf"U_{{{spring.name}}} = {self.L(potential[spring.name])}",
+                      "Potential energy stored in the spring.")
+        self.progress(0.6, "gravity and springs")
+        g_tp = [U_tp.diff(qk) for qk in self.q]
+        k_tp = [Us_tp.diff(qk) for qk in self.q]
+        g = sp.Matrix([_expr(e) for e in g_tp])
+        spring_vec = sp.Matrix([_expr(e) for e in k_tp])
+        if any(e != 0 for e in robot.gravity):
+            self.step("Potential energy", rf"U(q) = {self.L(_expr(U_tp))}",
+                      "Gravity: U_i = -m_i g^T p_ci for each link.", bodies=[b.name for b in robot.bodies])
+        self.step("Gravity vector", rf"g(q) = \left(\frac{{\partial U}}{{\partial q}}\right)^T = {self.L(g)}",
+                  "Gradient of the gravitational potential energy.")
+        if robot.springs:
+            self.step("Spring forces", rf"k(q) = \left(\frac{{\partial U_e}}{{\partial q}}\right)^T = {self.L(spring_vec)}",
+                      "Gradient of the elastic potential energy.")
+
+        # Christoffel symbols
+        self.progress(0.7, "Christoffel symbols")
+        dM = [[[M_tp[i][j].diff(qk) for qk in self.q] for j in range(n)] for i in range(n)]
+        christoffel = []
+        C_tp = [[TrigPoly() for _ in range(n)] for _ in range(n)]
+        for i in range(n):
+            Ci_tp = [[(dM[i][j][k] + dM[i][k][j] - dM[j][k][i]).scale(sp.Rational(1, 2)) for k in range(n)]
+                     for j in range(n)]
+            Ci = _matrix(Ci_tp)
+            christoffel.append(Ci)
+            for j in range(n):
+                for k in range(n):
+                    if Ci_tp[j][k].terms:
+                        C_tp[i][j] = C_tp[i][j] + Ci_tp[j][k].scale(dq[k])
+            self.step(f"Christoffel matrix C_{i + 1}",
+                      rf"C_{{{i + 1}}}(q) = \frac{{1}}{{2}}\left(\frac{{\partial m_{{{i + 1}}}}}{{\partial q}} + "
+                      rf"\left(\frac{{\partial m_{{{i + 1}}}}}{{\partial q}}\right)^T - \frac{{\partial M}}{{\partial q_{{{i + 1}}}}}\right) = {self.L(Ci)}",
+                      f"Christoffel symbols of row {i + 1}; c_{i + 1} = q'^T C_{i + 1} q'.",
+                      joints=[robot.bodies[min(i, len(robot.bodies) - 1)].name])
+        C_tp = [[e.expand() for e in row] for row in C_tp]
+        C = _matrix(C_tp)
+        c_tp = [sum((C_tp[i][j].scale(dq[j]) for j in range(n)), TrigPoly()).expand() for i in range(n)]
+        c = sp.Matrix([_expr(e) for e in c_tp])
+        self.step("Coriolis and centrifugal terms", rf"c(q,\dot q) = {self.L(c)}", "c_i = q'^T C_i q'.")
+        self.step("Factorization c = C(q, q') q'", rf"C(q,\dot q) = {self.L(C)}",
+                  "Built from the Christoffel symbols, so that M' - 2C is skew-symmetric.")
+
+        # friction
+        fr = [sp.Integer(0)] * n
+        for cname, coeff in robot.viscous.items():
+            k = robot.coordinates.index(cname)
+            fr[k] += coeff * dq[k]
+        for cname, coeff in robot.coulomb.items():
+            k = robot.coordinates.index(cname)
+            fr[k] += coeff * sp.sign(dq[k])
+        friction = sp.Matrix(fr)
+        if robot.viscous or robot.coulomb:
+            self.step("Friction", rf"\tau_f = {self.L(friction)}", "Viscous (and Coulomb) friction at the joints.")
+        tau = sp.Matrix(robot.coordinates and [sp.Symbol("tau_" + str(i + 1)) for i in range(n)])
+        lhs = M * sp.Matrix(self.ddq) + c + g + spring_vec + friction
+        self.step("Equations of motion", rf"M(q)\ddot q + c(q,\dot q) + g(q)"
+                  + (r" + k(q)" if robot.springs else "") + (r" + \tau_f" if robot.viscous or robot.coulomb else "")
+                  + rf" = \tau,\quad {self.L(lhs)} = {self.L(sp.Matrix(self._tau_names()))}",
+                  "The Euler-Lagrange equations, one row per coordinate.")
+
+        self.progress(0.8, "linear parametrization")
+        param = self._parametrize(M_tp, C_tp, g_tp, k_tp, fr)
+        self.step("Linear parametrization", rf"Y(q,\dot q,\ddot q)\,a = \tau,\quad Y = {self.L(param.Y)},\quad "
+                  rf"a = {self.L(sp.Matrix(param.a))}",
+                  f"A minimal set of {param.count} dynamic coefficients (known: {', '.join(param.known) or 'none'}).")
+        dqr, ddqr = self.robot.reference_symbols()
+        self.step("Adaptive regressor", rf"Y(q,\dot q,\dot q_r,\ddot q_r) = {self.L(param.Y_ref)}",
+                  "Y_r a = M q''_r + C(q, q') q'_r + g(q) (+ springs, friction): the Slotine-Li regressor.")
+        self.progress(1.0, "done")
+        return Dynamics(
+            robot_name=robot.name, content_hash=robot.content_hash,
+            coordinates=list(robot.coordinates), parameters=list(robot.parameters),
+            com_positions=positions, com_velocities=velocities, angular_velocities=omegas,
+            kinetic=kinetic, potential=potential, M=M, christoffel=christoffel, C=C, c=c, g=g,
+            spring=spring_vec, friction=friction, parametrization=param, steps=self.steps)
+
+    def _tau_names(self):
+        act = self.robot.actuated
+        return [sp.Symbol(f"tau_{i + 1}") if act[i] else sp.Integer(0) for i in range(self.n)]
+
+    # -------------------------------------------------------------- regressor
+    def _parametrize(self, M_tp, C_tp, g_tp, k_tp, fr) -> Parametrization:
+        n = self.n
+        dq, ddq = self.dq, self.ddq
+        dqr, ddqr = self.robot.reference_symbols()
+        known = set(self.known)
+        unknown_syms = [p.symbol for p in self.robot.parameters.values() if p.name not in known]
+
+        def rows(acc, vel_for_C, vel_for_friction):
+            out = []
+            for i in range(n):
+                t = TrigPoly()
+                for j in range(n):
+                    if M_tp[i][j].terms:
+                        t = t + M_tp[i][j].scale(acc[j])
+                    if C_tp[i][j].terms:
+                        t = t + C_tp[i][j].scale(vel_for_C[j])
+                t = t + g_tp[i] + k_tp[i]
+                f = fr[i].subs(dict(zip(dq, vel_for_friction))) if fr[i] != 0 else 0
+                t = t + _tp(f)
+                out.append(t.expand())
+            return out
+
+        tau_rows = rows(ddq, dq, dq)
+        ref_rows = rows(ddqr, dqr, dqr)
+        cols = _split_columns(tau_rows, unknown_syms)
+        ref_cols = _split_columns(ref_rows, unknown_syms)
+        order = sorted(range(len(cols)), key=lambda k: (_complexity(cols[k][1]), k))
+        basis, coeff = _independent_columns([cols[k] for k in order], self._column_vars(dqr, ddqr), known)
+        Y = sp.Matrix(n, len(basis), lambda i, b: _expr(basis[b][1][i]))
+        ref_map = {mono: vec for mono, vec in ref_cols}
+        Y_ref = sp.Matrix(n, len(basis), lambda i, b: _expr(ref_map[basis[b][0]][i]) if basis[b][0] in ref_map else 0)
+        a = [sp.factor_terms(sp.expand(e)) for e in coeff]
+        return Parametrization(Y, a, Y_ref, sorted(known), sorted(s.name for s in unknown_syms))
+
+    def _column_vars(self, dqr, ddqr):
+        return list(self.q) + list(self.dq) + list(self.ddq)
+
+
+def _complexity(vec: List[TrigPoly]) -> Tuple[int, int]:
+    terms = sum(len(sp.Add.make_args(c)) for tp in vec for c in tp.terms.values())
+    return (terms, sum(sp.count_ops(c) for tp in vec for c in tp.terms.values()))
+
+
+def _split_columns(rows: List[TrigPoly], unknown: List[sp.Symbol]):
+    """tau_i = sum_psi Y_i,psi * psi with psi monomials of the unknown parameters."""
+    columns: Dict[sp.Expr, List[Dict]] = {}
+    order: List[sp.Expr] = []
+    n = len(rows)
+    for i, tp in enumerate(rows):
+        for key, coeff in tp.terms.items():
+            if unknown:
+                poly = sp.Poly(coeff, *unknown)
+                items = poly.terms()
+                gens = poly.gens
+            else:
+                items, gens = [((), coeff)], ()
+            for monom, c in items:
+                psi = sp.Mul(*[g ** e for g, e in zip(gens, monom)])
+                if psi == 1 and unknown:
+                    raise ValueError("a term of the dynamics does not depend on any unknown parameter: "
+                                     f"{c * TrigPoly.basis_function(key)}; mark fewer parameters as known")
+                if psi not in columns:
+                    columns[psi] = [dict() for _ in range(n)]
+                    order.append(psi)
+                columns[psi][i][key] = columns[psi][i].get(key, 0) + c
+    return [(psi, [TrigPoly(columns[psi][i]) for i in range(n)]) for psi in order]
+
+
+def _independent_columns(cols, variables, known):
+    """Greedy basis of the column space (over functions of the known parameters); dependent columns
+    add their parameter monomial, times the exact combination coefficients, to the basis coefficients."""
+    rng = np.random.default_rng(12345)
+    syms = sorted(set().union(*[set().union(*[_free(tp) for tp in vec]) for _, vec in cols]) if cols else set(),
+                  key=lambda s: s.name)
+    known_syms = [s for s in syms if s.name in known]
+    sample_syms = [s for s in syms if s.name not in known]
+    known_vals = {s: float(rng.uniform(0.5, 1.5)) for s in known_syms}
+    npts = 6 + 2 * len(cols)
+    samples = [{s: float(rng.uniform(-1.5, 1.5)) for s in sample_syms} for _ in range(npts)]
+    numeric = []
+    for _, vec in cols:
+        f = sp.lambdify(syms, sp.Matrix([tp.to_expr() for tp in vec]), "numpy") if syms else None
+        vals = []
+        for smp in samples:
+            env = {**known_vals, **smp}
+            out = f(*[env[s] for s in syms]) if f else sp.Matrix([tp.to_expr() for tp in vec])
+            vals.extend(np.asarray(out, dtype=float).ravel())
+        numeric.append(np.array(vals))
+    basis, basis_num, coeffs = [], [], []
+    for (psi, vec), num in zip(cols, numeric):
+        if basis_num:
+            A = np.column_stack(basis_num)
+            lam, *_ = np.linalg.lstsq(A, num, rcond=None)
+            resid = np.linalg.norm(A @ lam - num)
+            scale = max(1.0, np.linalg.norm(num))
+            dependent = resid < 1e-8 * scale
+        else:
+            dependent = np.linalg.norm(num) < 1e-12
+            if dependent:
+                continue
+        if not dependent:
+            basis.append((psi, vec))
+            basis_num.append(num)
+            coeffs.append(psi)
+            continue
+        lam_exact = _exact_combination([b[1] for b in basis], vec, known_syms, lam)
+        for b, l in enumerate(lam_exact):
+            if l != 0:
+                coeffs[b] = coeffs[b] + l * psi
+    return basis, coeffs
+
+
+def _free(tp: TrigPoly):
+    out = set()
+    for (freq, _), c in tp.terms.items():
+        out |= c.free_symbols
+        out |= {s for s, _ in freq}
+    return out
+
+
+def _exact_combination(basis_vecs, target, known_syms, lam_numeric):
+    """Exact lambda (functions of the known parameters) with target = sum lambda_b basis_b."""
+    k = len(basis_vecs)
+    lam = sp.symbols(f"lambda0:{k}")
+    known_set = set(known_syms)
+    eqs = {}
+    for i in range(len(target)):
+        combo = TrigPoly()
+        for b in range(k):
+            if basis_vecs[b][i].terms:
+                combo = combo + basis_vecs[b][i].scale(lam[b])
+        diff = (combo - target[i]).expand()
+        for key, coeff in diff.terms.items():
+            other = sorted((coeff.free_symbols - known_set - set(lam)), key=lambda s: s.name)
+            if other:
+                poly = sp.Poly(coeff, *other)
+                for _m, c in poly.terms():
+                    eqs[sp.expand(c)] = True
+            else:
+                eqs[sp.expand(coeff)] = True
+    sol = sp.solve(list(eqs), lam, dict=True)
+    if not sol:
+        raise RuntimeError("internal error: a numerically dependent regressor column has no exact combination")
+    values = [sp.simplify(sol[0].get(l, 0)) for l in lam]
+    # free lambdas (if any) are set to zero
+    return [v.subs({l: 0 for l in lam}) for v in values]

@@ -1,0 +1,219 @@
+"""Exercises as data: loading exercise files and solving them with the engine.
+
+An exercise file (YAML, app/exercises/<exam>_<n>.yaml, format in docs/exercise-format.md) says
+which robot it uses, the paraphrased question, the data given, and the tasks: calls into the
+engine (task kinds registered in app.core.tasks). ``solve`` runs the tasks in order and returns
+the steps and the named answers. Expected answers live beside the exercise in
+``<file>.expected.yaml`` and are read by the tests only, never by ``solve``.
+
+>>> ex = load_exercise("2004-03-25#1")
+>>> sol = solve(ex)
+>>> sol.answers["regressor_count"]
+3
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+from typing import Any, Callable, Dict, List, Mapping, Optional
+
+import yaml
+
+from .dynamics import Dynamics, derive
+from .errors import UserError
+from .expressions import ExpressionError, parse_expression
+from .robot import RobotModel, load_robot, parse_robot, robot_path
+from .steps import Step
+
+EXERCISES_DIR = Path(__file__).resolve().parent.parent / "exercises"
+
+
+class ExerciseError(UserError):
+    """An exercise file is malformed or asks for something the engine cannot do."""
+
+
+@dataclass
+class Exercise:
+    id: str
+    title: str
+    robot: str                      # shipped robot name or path (relative paths: to the file)
+    question: str
+    tasks: List[dict]
+    exam: str = ""
+    number: str = ""
+    topics: List[str] = field(default_factory=list)
+    given: Dict[str, Any] = field(default_factory=dict)      # parameter values and other data
+    configuration: Dict[str, float] = field(default_factory=dict)
+    notes: List[str] = field(default_factory=list)
+    source: str = ""
+
+    @property
+    def robot_ref(self) -> str:
+        p = Path(self.robot)
+        if self.source and (p.suffix in (".yaml", ".yml") or "/" in self.robot):
+            if not p.is_absolute():
+                p = Path(self.source).parent / p
+            return str(p)
+        return self.robot
+
+    def load_robot(self) -> RobotModel:
+        return load_robot(self.robot_ref)
+
+
+@dataclass
+class Solution:
+    exercise: Exercise
+    steps: List[Step]
+    answers: Dict[str, Any]
+    notes: List[str]
+    robot: RobotModel
+
+    def markdown(self) -> str:
+        """The whole solution as Markdown with LaTeX ($$ ... $$)."""
+        lines = [f"# {self.exercise.id}: {self.exercise.title}", "", f"Robot: {self.robot.title}", "",
+                 "## Question", "", self.exercise.question.strip(), "", "## Solution", ""]
+        for k, st in enumerate(self.steps, 1):
+            lines += [f"### {k}. {st.title}", ""]
+            if st.text:
+                lines += [st.text, ""]
+            if st.latex:
+                lines += ["$$", st.latex, "$$", ""]
+        if self.notes:
+            lines += ["## Notes on the printed solution", ""] + [f"- {n}" for n in self.notes] + [""]
+        return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------- task context
+class TaskContext:
+    """What a task sees: the robot, its (lazily derived) dynamics, the given data, and where to put
+    steps and answers. Tasks call ``ctx.step(...)`` and ``ctx.answer(name, value)``."""
+
+    def __init__(self, exercise: Exercise, robot: RobotModel, given: Mapping[str, Any],
+                 progress: Optional[Callable[[float, str], None]] = None):
+        self.exercise = exercise
+        self.robot = robot
+        self.given = dict(given)
+        self.steps: List[Step] = []
+        self.answers: Dict[str, Any] = {}
+        self.notes: List[str] = list(exercise.notes)
+        self.progress = progress or (lambda f, m: None)
+        self._derived: Dict[tuple, Dynamics] = {}
+
+    def dynamics(self, known=None) -> Dynamics:
+        key = tuple(sorted(known)) if known is not None else None
+        if key not in self._derived:
+            self._derived[key] = derive(self.robot, known=known)
+        return self._derived[key]
+
+    @cached_property
+    def numeric(self):
+        from .numeric import NumericModel
+        values = {k: v for k, v in self.given.items() if k in self.robot.parameters}
+        return NumericModel(self.robot, values, self.dynamics())
+
+    def step(self, title: str, latex: str = "", text: str = "", bodies=(), joints=(), **highlight) -> Step:
+        hl = {k: list(v) for k, v in (("bodies", bodies), ("joints", joints)) if v}
+        hl.update({k: v for k, v in highlight.items() if v})
+        st = Step(title, latex, text, hl)
+        self.steps.append(st)
+        return st
+
+    def answer(self, name: str, value) -> None:
+        self.answers[name] = value
+
+    def expr(self, text, where: str = "expression"):
+        """Parse an expression of the exercise (robot symbols and coordinates) safely."""
+        try:
+            return parse_expression(text)
+        except ExpressionError as exc:
+            raise ExerciseError(f"{self.exercise.source or self.exercise.id}: {where}: {exc}") from None
+
+
+# ---------------------------------------------------------------------- loading
+def exercise_path(id_or_path: str | Path) -> Path:
+    p = Path(id_or_path)
+    if p.suffix in (".yaml", ".yml") or p.exists():
+        if not p.exists():
+            raise ExerciseError(f"{p}: no such file")
+        return p
+    name = str(id_or_path).replace("#", "_")
+    cand = EXERCISES_DIR / f"{name}.yaml"
+    if cand.exists():
+        return cand
+    raise ExerciseError(f"unknown exercise '{id_or_path}' (not a file, not a shipped exercise; "
+                        "`python -m app exercises` lists them)")
+
+
+_KEYS = {"id", "title", "robot", "question", "tasks", "exam", "number", "topics", "given",
+         "configuration", "notes"}
+
+
+def load_exercise(id_or_path: str | Path) -> Exercise:
+    path = exercise_path(id_or_path)
+    try:
+        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except yaml.YAMLError as exc:
+        raise ExerciseError(f"{path}: not valid YAML: {exc}") from None
+    return parse_exercise(data, str(path))
+
+
+def parse_exercise(data, source: str = "<exercise>") -> Exercise:
+    if not isinstance(data, dict):
+        raise ExerciseError(f"{source}: expected a mapping")
+    unknown = set(data) - _KEYS
+    if unknown:
+        raise ExerciseError(f"{source}: unknown field(s) {sorted(unknown)} (allowed: {sorted(_KEYS)})")
+    for key in ("id", "robot", "question", "tasks"):
+        if key not in data:
+            raise ExerciseError(f"{source}: {key}: required field is missing")
+    tasks = data["tasks"]
+    if not isinstance(tasks, list) or not tasks:
+        raise ExerciseError(f"{source}: tasks: expected a non-empty list")
+    from .tasks import TASKS
+    for i, t in enumerate(tasks):
+        if isinstance(t, str):
+            tasks[i] = t = {"kind": t}
+        if not isinstance(t, dict) or "kind" not in t:
+            raise ExerciseError(f"{source}: tasks[{i}]: expected a mapping with a kind")
+        if t["kind"] not in TASKS:
+            raise ExerciseError(f"{source}: tasks[{i}].kind: unknown task kind '{t['kind']}' "
+                                f"(known: {', '.join(sorted(TASKS))})")
+    notes = data.get("notes") or []
+    if isinstance(notes, str):
+        notes = [notes]
+    return Exercise(id=str(data["id"]), title=str(data.get("title", data["id"])), robot=str(data["robot"]),
+                    question=str(data["question"]), tasks=tasks, exam=str(data.get("exam", "")),
+                    number=str(data.get("number", "")), topics=list(data.get("topics") or []),
+                    given=dict(data.get("given") or {}), configuration=dict(data.get("configuration") or {}),
+                    notes=[str(n) for n in notes], source=source)
+
+
+def list_exercises() -> List[Exercise]:
+    out = []
+    for p in sorted(EXERCISES_DIR.glob("*.yaml")):
+        if p.name.endswith(".expected.yaml"):
+            continue
+        out.append(load_exercise(p))
+    return out
+
+
+def expected_path(exercise: Exercise) -> Path:
+    return Path(exercise.source).with_suffix("").with_suffix(".expected.yaml")
+
+
+# ---------------------------------------------------------------------- solving
+def solve(exercise: Exercise, given: Optional[Mapping[str, Any]] = None,
+          progress: Optional[Callable[[float, str], None]] = None) -> Solution:
+    """Run every task of an exercise; ``given`` overrides the exercise's data (a variant)."""
+    from .tasks import TASKS
+    robot = exercise.load_robot()
+    data = dict(exercise.given)
+    if given:
+        data.update(given)
+    ctx = TaskContext(exercise, robot, data, progress)
+    for i, spec in enumerate(exercise.tasks):
+        ctx.progress(i / len(exercise.tasks), spec["kind"])
+        TASKS[spec["kind"]](ctx, {k: v for k, v in spec.items() if k != "kind"})
+    ctx.progress(1.0, "done")
+    return Solution(exercise, ctx.steps, ctx.answers, ctx.notes, robot)

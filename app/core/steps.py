@@ -1,0 +1,88 @@
+"""Derivation steps and the LaTeX conventions of the lab.
+
+A step is what the viewer and the exercise walkthroughs show: a title, a formula in LaTeX, a
+one-line explanation, and what to highlight in 3D.
+
+>>> from app.core.expressions import symbol
+>>> to_latex(symbol("ddq1") + symbol("dq2_r"))
+'\\\\ddot{q}_{1} + \\\\dot{q}_{2r}'
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from typing import Dict, List, Optional
+
+import sympy as sp
+
+
+@dataclass
+class Step:
+    title: str
+    latex: str
+    text: str = ""
+    highlight: Dict[str, List[str]] = field(default_factory=dict)   # {"bodies": [...], "joints": [...]}
+
+    def as_dict(self) -> dict:
+        return {"title": self.title, "latex": self.latex, "text": self.text, "highlight": self.highlight}
+
+
+_NAME = re.compile(r"^(d{0,2})([A-Za-z]+?)_?(\d*)(_r)?$")
+_GREEK = {"alpha", "beta", "gamma", "delta", "epsilon", "theta", "phi", "psi", "lambda", "mu", "nu",
+          "rho", "sigma", "tau", "omega", "eta", "xi", "zeta", "kappa", "chi", "Delta", "Theta", "Phi",
+          "Psi", "Lambda", "Omega", "Gamma", "Sigma", "pi"}
+
+
+def symbol_latex(name: str, coordinates=()) -> str:
+    """LaTeX of one symbol name: coordinates' time derivatives get dots, digits become subscripts.
+
+    >>> symbol_latex("dtheta2", ["theta2"])
+    '\\\\dot{\\\\theta}_{2}'
+    >>> symbol_latex("I_c2x")
+    'I_{c2x}'
+    """
+    for prefix, wrap in (("dd", r"\ddot{%s}"), ("d", r"\dot{%s}")):
+        for suffix in ("_r", ""):
+            if name.startswith(prefix) and name.endswith(suffix):
+                core = name[len(prefix): len(name) - len(suffix)] if suffix else name[len(prefix):]
+                if core in coordinates:
+                    base, sub = _split(core)
+                    sub = sub + ("r" if suffix else "")
+                    body = wrap % base
+                    return f"{body}_{{{sub}}}" if sub else body
+    base, sub = _split(name)
+    return f"{base}_{{{sub}}}" if sub else base
+
+
+def _split(name: str):
+    if "_" in name:
+        head, tail = name.split("_", 1)
+        return _greek(head), tail.replace("_", ",")
+    m = re.match(r"^([A-Za-z]+?)(\d+\w*)$", name)
+    if m:
+        return _greek(m.group(1)), m.group(2)
+    return _greek(name), ""
+
+
+def _greek(word: str) -> str:
+    return "\\" + word if word in _GREEK else word
+
+
+_COORDS: List[str] = []
+
+
+def set_coordinates(names) -> None:
+    """Tell the printer which names are coordinates (their derivatives get dots)."""
+    _COORDS[:] = list(names)
+
+
+def to_latex(expr, coordinates=None, **kwargs) -> str:
+    """LaTeX of a sympy object using the lab's symbol conventions."""
+    coords = list(coordinates) if coordinates is not None else list(_COORDS)
+    expr = sp.sympify(expr)
+    if not coords:
+        coords = sorted({s.name[2:] for s in expr.free_symbols if s.name.startswith("dd")} |
+                        {s.name[1:] for s in expr.free_symbols if s.name.startswith("d") and not s.name.startswith("dd")})
+    names = {s: symbol_latex(s.name, coords) for s in expr.free_symbols if isinstance(s, sp.Symbol)}
+    kwargs.setdefault("mat_delim", "(")
+    return sp.latex(expr, symbol_names=names, **kwargs)

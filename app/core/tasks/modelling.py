@@ -1,0 +1,64 @@
+"""Modelling tasks: the Lagrangian model, its factorizations and linear parametrizations.
+
+Answers produced (names used by the expected-answer files):
+- ``dynamics``: M, C, c, g, spring, friction, C1..Cn (Christoffel matrices, c_i = dq^T C_i dq),
+  T_<body> (kinetic energy per body), U (potential energy), p_<body> (CoM positions),
+  v_<body> (CoM velocities), w_<body> (angular velocity in the body frame).
+- ``regressor``: Y, a, regressor_count (and Y_r, the adaptive regressor).
+"""
+from __future__ import annotations
+
+import sympy as sp
+
+from ..steps import to_latex
+from . import task
+
+
+@task("dynamics")
+def dynamics_task(ctx, spec):
+    """Derive the model; ``show`` limits the steps shown (default: all the derivation steps)."""
+    dyn = ctx.dynamics()
+    show = spec.get("show")
+    for st in dyn.steps:
+        if st.title in ("Linear parametrization", "Adaptive regressor"):
+            continue
+        if show and not any(st.title.lower().startswith(s.lower()) for s in show):
+            continue
+        ctx.steps.append(st)
+    ctx.answer("M", dyn.M)
+    ctx.answer("C", dyn.C)
+    ctx.answer("c", dyn.c)
+    ctx.answer("g", dyn.g)
+    ctx.answer("spring", dyn.spring)
+    ctx.answer("friction", dyn.friction)
+    for i, Ci in enumerate(dyn.christoffel, 1):
+        ctx.answer(f"C{i}", Ci)
+    for body, T in dyn.kinetic.items():
+        ctx.answer(f"T_{body}", T)
+    ctx.answer("U", sum(dyn.potential.values(), sp.Integer(0)))
+    for body, p in dyn.com_positions.items():
+        ctx.answer(f"p_{body}", p)
+    for body, v in dyn.com_velocities.items():
+        ctx.answer(f"v_{body}", v)
+    for body, w in dyn.angular_velocities.items():
+        ctx.answer(f"w_{body}", w)
+
+
+@task("regressor")
+def regressor_task(ctx, spec):
+    """Minimal linear parametrization tau = Y a; ``known`` lists the parameters taken as known."""
+    dyn = ctx.dynamics(known=spec.get("known"))
+    par = dyn.parametrization
+    L = lambda e: to_latex(e, ctx.robot.coordinates)
+    ctx.step("Dynamic coefficients",
+             r"a = " + L(sp.Matrix(par.a)),
+             f"Collect the model in products of unknown parameters; columns that are combinations of "
+             f"others merge, leaving {par.count} independent coefficients (known: {', '.join(par.known) or 'none'}).")
+    ctx.step("Regressor", r"Y(q,\dot q,\ddot q) = " + L(par.Y), "Y a reproduces M q'' + c + g (+ springs, friction).")
+    ctx.answer("Y", par.Y)
+    ctx.answer("a", sp.Matrix(par.a))
+    ctx.answer("regressor_count", par.count)
+    ctx.answer("Y_r", par.Y_ref)
+    if spec.get("adaptive"):
+        ctx.step("Adaptive regressor", r"Y(q,\dot q,\dot q_r,\ddot q_r) = " + L(par.Y_ref),
+                 "With q'_r = q'_d + Lambda e: u = Y_r a_hat + K_D (q'_r - q'), a_hat' = Gamma Y_r^T (q'_r - q').")

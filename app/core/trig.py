@@ -1,0 +1,285 @@
+"""Exact canonical form of trigonometric polynomials: sums of ``coefficient * cos(n.theta)`` and
+``coefficient * sin(n.theta)`` with integer frequency vectors ``n``.
+
+Products of sines and cosines are turned into sums by the product-to-sum identities, so that
+``sin(q1)*sin(q1+q2) + cos(q1)*cos(q1+q2)`` becomes ``cos(q2)`` without any search. Coefficients
+are polynomials in every other symbol (masses, lengths, prismatic coordinates, velocities ...).
+Because the basis functions are linearly independent, two expressions are equal exactly when
+their canonical forms are equal: this is how the engine simplifies and how it finds linear
+dependencies in regressors.
+
+>>> from app.core.expressions import symbol
+>>> q1, q2 = symbol("q1"), symbol("q2")
+>>> TrigPoly.from_expr(sp.sin(q1)*sp.sin(q1+q2) + sp.cos(q1)*sp.cos(q1+q2)).to_expr()
+cos(q2)
+"""
+from __future__ import annotations
+
+from collections import defaultdict
+from typing import Dict, Iterable, Tuple
+
+import sympy as sp
+
+Frequency = Tuple[Tuple[sp.Symbol, int], ...]   # sorted (angle symbol, integer multiple) pairs
+Key = Tuple[Frequency, str]                      # (frequency, "c" or "s")
+
+_ONE: Key = ((), "c")
+
+
+def _sort_key(sym: sp.Symbol):
+    return sym.name
+
+
+def _canonical(freq: Dict[sp.Symbol, int]) -> Tuple[Frequency, int]:
+    """Sort a frequency, drop zeros, and make its first entry positive. Returns (freq, sign)."""
+    items = tuple(sorted(((s, n) for s, n in freq.items() if n != 0), key=lambda it: _sort_key(it[0])))
+    if items and items[0][1] < 0:
+        return tuple((s, -n) for s, n in items), -1
+    return items, 1
+
+
+def _combine(f1: Frequency, f2: Frequency, sign: int) -> Dict[sp.Symbol, int]:
+    out: Dict[sp.Symbol, int] = defaultdict(int)
+    for s, n in f1:
+        out[s] += n
+    for s, n in f2:
+        out[s] += sign * n
+    return out
+
+
+class TrigPoly:
+    """A trigonometric polynomial in canonical form (immutable in use; see module docstring)."""
+
+    __slots__ = ("terms",)
+
+    def __init__(self, terms: Dict[Key, sp.Expr] | None = None):
+        self.terms: Dict[Key, sp.Expr] = {}
+        if terms:
+            for key, coeff in terms.items():
+                if coeff != 0:
+                    self.terms[key] = coeff
+
+    # ----------------------------------------------------------------- construction
+    @staticmethod
+    def constant(value) -> "TrigPoly":
+        return TrigPoly({_ONE: sp.sympify(value)}) if value != 0 else TrigPoly()
+
+    @staticmethod
+    def _add_term(terms: Dict[Key, sp.Expr], freq: Dict[sp.Symbol, int], kind: str, coeff) -> None:
+        canon, sign = _canonical(freq)
+        if not canon:
+            if kind == "s":
+                return
+            key = _ONE
+        else:
+            key = (canon, kind)
+            if kind == "s":
+                coeff = sign * coeff
+        terms[key] = terms.get(key, 0) + coeff
+
+    @classmethod
+    def from_expr(cls, expr) -> "TrigPoly":
+        """Convert a sympy expression; trigonometric arguments must be integer combinations of
+        symbols plus a constant. Anything else is kept as an opaque factor of the coefficients."""
+        expr = sp.sympify(expr)
+        cache: Dict[sp.Basic, TrigPoly] = {}
+        return cls._convert(expr, cache)
+
+    @classmethod
+    def _convert(cls, expr: sp.Expr, cache) -> "TrigPoly":
+        hit = cache.get(expr)
+        if hit is not None:
+            return hit
+        if not expr.has(sp.sin, sp.cos):
+            result = TrigPoly.constant(expr)
+        elif expr.is_Add:
+            result = TrigPoly()
+            for arg in expr.args:
+                result = result + cls._convert(arg, cache)
+        elif expr.is_Mul:
+            result = TrigPoly.constant(1)
+            for arg in expr.args:
+                result = result * cls._convert(arg, cache)
+        elif expr.is_Pow and expr.exp.is_Integer and expr.exp > 0:
+            base = cls._convert(expr.base, cache)
+            result = base.power(int(expr.exp))
+        elif isinstance(expr, (sp.sin, sp.cos)):
+            result = cls._trig(expr)
+        else:
+            result = TrigPoly.constant(expr)   # opaque (e.g. 1/cos(q), sqrt(...))
+        cache[expr] = result
+        return result
+
+    @classmethod
+    def _trig(cls, expr) -> "TrigPoly":
+        arg = sp.expand(expr.args[0])
+        freq: Dict[sp.Symbol, int] = {}
+        phase = sp.Integer(0)
+        for term in sp.Add.make_args(arg):
+            coeff, rest = term.as_coeff_Mul()
+            if rest == 1:
+                phase += coeff
+            elif rest.is_Symbol and coeff.is_Integer:
+                freq[rest] = freq.get(rest, 0) + int(coeff)
+            elif rest.is_number:
+                phase += term
+            else:
+                return TrigPoly.constant(expr)   # not an integer combination: keep opaque
+        cos_phase, sin_phase = sp.cos(phase), sp.sin(phase)
+        terms: Dict[Key, sp.Expr] = {}
+        if isinstance(expr, sp.cos):   # cos(x + p) = cos p cos x - sin p sin x
+            cls._add_term(terms, freq, "c", cos_phase)
+            cls._add_term(terms, freq, "s", -sin_phase)
+        else:                          # sin(x + p) = cos p sin x + sin p cos x
+            cls._add_term(terms, freq, "s", cos_phase)
+            cls._add_term(terms, freq, "c", sin_phase)
+        return TrigPoly(terms)
+
+    # ----------------------------------------------------------------- arithmetic
+    def __add__(self, other) -> "TrigPoly":
+        if not isinstance(other, TrigPoly):
+            other = TrigPoly.constant(other)
+        terms = dict(self.terms)
+        for key, coeff in other.terms.items():
+            terms[key] = terms.get(key, 0) + coeff
+        return TrigPoly(terms)
+
+    __radd__ = __add__
+
+    def __neg__(self) -> "TrigPoly":
+        return TrigPoly({k: -c for k, c in self.terms.items()})
+
+    def __sub__(self, other) -> "TrigPoly":
+        if not isinstance(other, TrigPoly):
+            other = TrigPoly.constant(other)
+        return self + (-other)
+
+    def __rsub__(self, other) -> "TrigPoly":
+        return (-self) + other
+
+    def scale(self, factor) -> "TrigPoly":
+        factor = sp.sympify(factor)
+        if factor == 0:
+            return TrigPoly()
+        return TrigPoly({k: c * factor for k, c in self.terms.items()})
+
+    def __mul__(self, other) -> "TrigPoly":
+        if not isinstance(other, TrigPoly):
+            return self.scale(other)
+        terms: Dict[Key, sp.Expr] = {}
+        half = sp.Rational(1, 2)
+        for (f1, k1), c1 in self.terms.items():
+            for (f2, k2), c2 in other.terms.items():
+                coeff = c1 * c2
+                if not f1:
+                    self._add_term(terms, dict(f2), k2, coeff)
+                    continue
+                if not f2:
+                    self._add_term(terms, dict(f1), k1, coeff)
+                    continue
+                plus, minus = _combine(f1, f2, 1), _combine(f1, f2, -1)
+                h = coeff * half
+                if k1 == "c" and k2 == "c":
+                    self._add_term(terms, minus, "c", h)
+                    self._add_term(terms, plus, "c", h)
+                elif k1 == "s" and k2 == "s":
+                    self._add_term(terms, minus, "c", h)
+                    self._add_term(terms, plus, "c", -h)
+                elif k1 == "s" and k2 == "c":
+                    self._add_term(terms, plus, "s", h)
+                    self._add_term(terms, minus, "s", h)
+                else:  # cos a sin b
+                    self._add_term(terms, plus, "s", h)
+                    self._add_term(terms, minus, "s", -h)
+        return TrigPoly(terms).expand()
+
+    __rmul__ = __mul__
+
+    def power(self, n: int) -> "TrigPoly":
+        result, base = TrigPoly.constant(1), self
+        while n:
+            if n & 1:
+                result = result * base
+            n >>= 1
+            if n:
+                base = base * base
+        return result
+
+    def expand(self) -> "TrigPoly":
+        """Expand every coefficient (drops the terms that cancel)."""
+        return TrigPoly({k: sp.expand(c) for k, c in self.terms.items()})
+
+    def diff(self, var: sp.Symbol) -> "TrigPoly":
+        """Exact derivative with respect to ``var`` (angle or coefficient variable)."""
+        terms: Dict[Key, sp.Expr] = {}
+        for (freq, kind), coeff in self.terms.items():
+            dc = sp.diff(coeff, var)
+            if dc != 0:
+                terms[(freq, kind)] = terms.get((freq, kind), 0) + dc
+            n = dict(freq).get(var, 0)
+            if n:
+                if kind == "c":   # d/dx cos(n x) = -n sin(n x)
+                    key, value = (freq, "s"), -n * coeff
+                else:
+                    key, value = (freq, "c"), n * coeff
+                terms[key] = terms.get(key, 0) + value
+        return TrigPoly(terms).expand()
+
+    def subs(self, mapping) -> "TrigPoly":
+        """Substitute in the coefficients (not inside the trigonometric basis)."""
+        return TrigPoly({k: sp.expand(c.subs(mapping)) for k, c in self.terms.items()}) 
+
+    # ----------------------------------------------------------------- queries and output
+    def is_zero(self) -> bool:
+        return not any(sp.expand(c) != 0 for c in self.terms.values())
+
+    def __eq__(self, other) -> bool:
+        if not isinstance(other, TrigPoly):
+            other = TrigPoly.constant(other)
+        return (self - other).is_zero()
+
+    def __hash__(self):  # pragma: no cover - not hashable by value on purpose
+        return id(self)
+
+    @staticmethod
+    def basis_function(key: Key) -> sp.Expr:
+        freq, kind = key
+        if not freq:
+            return sp.Integer(1)
+        arg = sp.Add(*[n * s for s, n in freq])
+        return sp.cos(arg) if kind == "c" else sp.sin(arg)
+
+    def items(self):
+        return self.terms.items()
+
+    def to_expr(self, factor_coefficients: bool = False) -> sp.Expr:
+        """Back to a sympy expression, one term per basis function."""
+        out = []
+        for key, coeff in self.terms.items():
+            if factor_coefficients:
+                coeff = sp.factor_terms(coeff)
+            out.append(coeff * self.basis_function(key))
+        return sp.Add(*out)
+
+    def __repr__(self) -> str:
+        return f"TrigPoly({self.to_expr()})"
+
+
+def canonical(expr) -> sp.Expr:
+    """Simplify an expression through the canonical form.
+
+    >>> from app.core.expressions import symbol
+    >>> q = symbol("q")
+    >>> canonical(sp.sin(q)**2 + sp.cos(q)**2)
+    1
+    """
+    return TrigPoly.from_expr(expr).to_expr()
+
+
+def equal(a, b) -> bool:
+    """Exact equality of two trigonometric-polynomial expressions."""
+    return TrigPoly.from_expr(sp.sympify(a) - sp.sympify(b)).is_zero()
+
+
+def matrix_to_trig(matrix: Iterable) -> list:
+    return [TrigPoly.from_expr(e) for e in matrix]
