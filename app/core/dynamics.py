@@ -31,7 +31,16 @@ from .robot import KNOWN_KINDS, RobotModel
 from .steps import Step, to_latex
 from .trig import TrigPoly
 
-ENGINE_VERSION = "1"
+def _engine_version() -> str:
+    """Hash of the engine's own source: any change to it invalidates the disk cache."""
+    here = Path(__file__).resolve().parent
+    h = hashlib.sha256()
+    for name in ("dynamics.py", "kinematics.py", "robot.py", "trig.py", "expressions.py", "steps.py"):
+        h.update((here / name).read_bytes())
+    return h.hexdigest()[:16]
+
+
+ENGINE_VERSION = _engine_version()
 CACHE_DIR = Path(os.environ.get("R2LAB_CACHE", Path(__file__).resolve().parents[2] / ".cache")) / "derivations"
 
 Progress = Optional[Callable[[float, str], None]]
@@ -98,45 +107,127 @@ def _tp(expr) -> TrigPoly:
     return TrigPoly.from_expr(expr)
 
 
-def _expr(tp: TrigPoly) -> sp.Expr:
-    return pretty(tp)
+def _expr(tp: TrigPoly, angles=()) -> sp.Expr:
+    return pretty(tp, angles)
 
 
-def pretty(tp: TrigPoly) -> sp.Expr:
+def pretty(tp: TrigPoly, angles: Sequence[Dict[sp.Symbol, int]] = ()) -> sp.Expr:
     """A compact, student-like sympy expression of a canonical trigonometric polynomial.
 
-    Terms are grouped by basis function; double angles of one angle are written with squares
-    (cos(2x) -> 1 - 2 sin(x)^2) when that makes the expression shorter."""
+    Terms are grouped by basis function. When double angles appear (spatial robots), the terms are
+    also rewritten as products of sines and cosines of the ``angles`` (the links' own angles, e.g.
+    q2 and q2 + q3), reduced with sin^2 + cos^2 = 1, and the shorter form is kept:
+    cos(q3) + cos(2 q2 + q3) becomes 2 cos(q2) cos(q2 + q3)."""
     base = tp.to_expr(factor_coefficients=True)
-    if not any(max(abs(n) for _, n in freq) > 1 for (freq, _k) in tp.terms if freq):
+    if not angles or not any(max(abs(n) for _, n in freq) > 1 for (freq, _k) in tp.terms if freq):
         return base
-    alt = _square_form(tp)
+    alt = _product_form(tp, list(angles))
+    if alt is None:
+        return base
     return alt if sp.count_ops(alt) < sp.count_ops(base) else base
 
 
-def _square_form(tp: TrigPoly) -> sp.Expr:
-    out = []
+def _product_form(tp: TrigPoly, angles):
+    """Rewrite every term over products of cos/sin of ``angles`` (None when impossible)."""
+    m = len(angles)
+    C = sp.symbols(f"_C0:{m}")
+    S = sp.symbols(f"_S0:{m}")
+    vecs = [dict(a) for a in angles]
+
+    def as_dict(freq):
+        return {s: n for s, n in freq}
+
+    def find(freq):
+        """Express freq as +-angle_i (+-angle_j): returns list of (index, sign)."""
+        target = as_dict(freq)
+        for i, a in enumerate(vecs):
+            if a == target:
+                return [(i, 1)]
+        for i, a in enumerate(vecs):
+            for j in range(i, m):
+                b = vecs[j]
+                for sb in (1, -1):
+                    keys = set(a) | set(b) | set(target)
+                    if all(a.get(k, 0) + sb * b.get(k, 0) == target.get(k, 0) for k in keys):
+                        return [(i, 1), (j, sb)]
+                    if all(-a.get(k, 0) + sb * b.get(k, 0) == target.get(k, 0) for k in keys):
+                        return [(i, -1), (j, sb)]
+        return None
+
+    total = sp.Integer(0)
     for (freq, kind), coeff in tp.terms.items():
-        if len(freq) == 1 and freq[0][1] == 2:
-            x = freq[0][0]
-            if kind == "c":
-                out.append(coeff - 2 * coeff * sp.sin(x) ** 2)
+        if not freq:
+            total += coeff
+            continue
+        parts = find(freq)
+        if parts is None:
+            return None
+        c, s_ = sp.Integer(1), sp.Integer(0)   # cos and sin of the running sum
+        for idx, sign in parts:
+            ci, si = C[idx], sign * S[idx]
+            c, s_ = c * ci - s_ * si, s_ * ci + c * si
+        total += coeff * (c if kind == "c" else s_)
+    total = sp.expand(total)
+    best = None
+    for reduce_sin in (True, False):
+        expr = total
+        for i in range(m):
+            if reduce_sin:
+                expr = _reduce_square(expr, S[i], C[i])
             else:
-                out.append(2 * coeff * sp.sin(x) * sp.cos(x))
-        else:
-            out.append(coeff * TrigPoly.basis_function((freq, kind)))
-    return sp.collect(sp.expand(sp.Add(*out)), [sp.sin(s) ** 2 for s in tp_angles(tp)], func=sp.factor_terms)
+                expr = _reduce_square(expr, C[i], S[i])
+        back = {C[i]: sp.cos(_angle_expr(vecs[i])) for i in range(m)}
+        back.update({S[i]: sp.sin(_angle_expr(vecs[i])) for i in range(m)})
+        monos = sp.Poly(expr, *C, *S).terms()
+        grouped = {}
+        for monom, coeff in monos:
+            key = sp.Mul(*[g ** e for g, e in zip(list(C) + list(S), monom)])
+            grouped[key] = grouped.get(key, 0) + coeff
+        out = sp.Add(*[sp.factor_terms(c) * k.xreplace(back) for k, c in grouped.items()])
+        if best is None or sp.count_ops(out) < sp.count_ops(best):
+            best = out
+    return best
 
 
-def tp_angles(tp: TrigPoly):
-    out = set()
-    for (freq, _k) in tp.terms:
-        out |= {s for s, _ in freq}
-    return sorted(out, key=lambda s: s.name)
+def _reduce_square(expr, x, y):
+    """Replace x**2 by 1 - y**2 everywhere (x, y are sin/cos placeholders of one angle)."""
+    poly = sp.Poly(expr, x)
+    out = sp.Integer(0)
+    for (k,), c in poly.terms():
+        out += c * x ** (k % 2) * (1 - y ** 2) ** (k // 2)
+    return sp.expand(out)
 
 
-def _matrix(rows) -> sp.Matrix:
-    return sp.Matrix([[_expr(e) for e in row] for row in rows])
+def _angle_expr(vec):
+    return sp.Add(*[n * s for s, n in vec.items()])
+
+
+def _matrix(rows, angles=()) -> sp.Matrix:
+    return sp.Matrix([[_expr(e, angles) for e in row] for row in rows])
+
+
+def natural_angles(kin: Kinematics) -> List[Dict[sp.Symbol, int]]:
+    """The links' own angles (merged rotation angles of the body frames, e.g. q2 + q3), as
+    frequency vectors; used to write spatial results with products like cos(q2) cos(q2 + q3)."""
+    coords = set(kin.q)
+    out: List[Dict[sp.Symbol, int]] = []
+    for frames in kin.frames.values():
+        rots = frames["body"].rotations or []
+        for _axis, angle in rots:
+            angle = sp.expand(angle)
+            vec = {}
+            ok = True
+            for term in sp.Add.make_args(angle):
+                coeff, rest = term.as_coeff_Mul()
+                if rest in coords and coeff.is_Integer:
+                    vec[rest] = vec.get(rest, 0) + int(coeff)
+                elif not term.free_symbols:
+                    continue
+                else:
+                    ok = False
+            if ok and vec and vec not in out and {s: -n for s, n in vec.items()} not in out:
+                out.append(vec)
+    return out
 
 
 # ------------------------------------------------------------------------------ derivation
@@ -195,6 +286,13 @@ class _Deriver:
         if unknown_names:
             raise ValueError(f"unknown parameter(s) {sorted(unknown_names)} in 'known'")
         self.known = list(known)
+        self.angles = natural_angles(self.kin)
+
+    def X(self, tp: TrigPoly) -> sp.Expr:
+        return pretty(tp, self.angles)
+
+    def MX(self, rows) -> sp.Matrix:
+        return _matrix(rows, self.angles)
 
     def L(self, expr) -> str:
         return to_latex(expr, self.robot.coordinates)
@@ -251,14 +349,14 @@ class _Deriver:
                 for k in range(n):
                     if Mi[j][k].terms:
                         Ti = Ti + Mi[j][k].scale(dq[j] * dq[k] / 2)
-            kinetic[body.name] = _expr(Ti.expand())
+            kinetic[body.name] = self.X(Ti.expand())
             for j in range(n):
                 for k in range(n):
                     M_tp[j][k] = M_tp[j][k] + Mi[j][k]
             Ui = TrigPoly()
             if body.mass != 0 and any(e != 0 for e in gvec):
                 Ui = _tp(-body.mass * (gvec.T * p)[0])
-            potential[body.name] = _expr(Ui)
+            potential[body.name] = self.X(Ui)
             U_tp = U_tp + Ui
             label = body.name
             text = (f"CoM of {label}: position, velocity, and angular velocity in its own frame; "
@@ -280,7 +378,7 @@ class _Deriver:
                       "Rotor inertia (reduced model: only the rotor's own spin counts).")
         M_tp = [[e.expand() for e in row] for row in M_tp]
         self.progress(0.5, "inertia matrix")
-        M = _matrix(M_tp)
+        M = self.MX(M_tp)
         self.step("Inertia matrix", rf"M(q) = {self.L(M)}",
                   "Collect T = 1/2 q'^T M(q) q'; M is symmetric and positive definite.",
                   bodies=[b.name for b in robot.bodies])
@@ -294,17 +392,17 @@ class _Deriver:
                 (ba, pa), (bb, pb) = spring.points
                 d = self.kin.point_position(ba, pa) - self.kin.point_position(bb, pb)
                 Ue = _tp(spring.stiffness * (d.T * d)[0] / 2)
-            potential[spring.name] = _expr(Ue)
+            potential[spring.name] = self.X(Ue)
             Us_tp = Us_tp + Ue
             self.step(f"Elastic energy of {spring.name}", rf"U_{{{spring.name}}} = {self.L(potential[spring.name])}",
                       "Potential energy stored in the spring.")
         self.progress(0.6, "gravity and springs")
         g_tp = [U_tp.diff(qk) for qk in self.q]
         k_tp = [Us_tp.diff(qk) for qk in self.q]
-        g = sp.Matrix([_expr(e) for e in g_tp])
-        spring_vec = sp.Matrix([_expr(e) for e in k_tp])
+        g = sp.Matrix([self.X(e) for e in g_tp])
+        spring_vec = sp.Matrix([self.X(e) for e in k_tp])
         if any(e != 0 for e in robot.gravity):
-            self.step("Potential energy", rf"U(q) = {self.L(_expr(U_tp))}",
+            self.step("Potential energy", rf"U(q) = {self.L(self.X(U_tp))}",
                       "Gravity: U_i = -m_i g^T p_ci for each link.", bodies=[b.name for b in robot.bodies])
         self.step("Gravity vector", rf"g(q) = \left(\frac{{\partial U}}{{\partial q}}\right)^T = {self.L(g)}",
                   "Gradient of the gravitational potential energy.")
@@ -320,7 +418,7 @@ class _Deriver:
         for i in range(n):
             Ci_tp = [[(dM[i][j][k] + dM[i][k][j] - dM[j][k][i]).scale(sp.Rational(1, 2)) for k in range(n)]
                      for j in range(n)]
-            Ci = _matrix(Ci_tp)
+            Ci = self.MX(Ci_tp)
             christoffel.append(Ci)
             for j in range(n):
                 for k in range(n):
@@ -332,9 +430,9 @@ class _Deriver:
                       f"Christoffel symbols of row {i + 1}; c_{i + 1} = q'^T C_{i + 1} q'.",
                       joints=[robot.bodies[min(i, len(robot.bodies) - 1)].name])
         C_tp = [[e.expand() for e in row] for row in C_tp]
-        C = _matrix(C_tp)
+        C = self.MX(C_tp)
         c_tp = [sum((C_tp[i][j].scale(dq[j]) for j in range(n)), TrigPoly()).expand() for i in range(n)]
-        c = sp.Matrix([_expr(e) for e in c_tp])
+        c = sp.Matrix([self.X(e) for e in c_tp])
         self.step("Coriolis and centrifugal terms", rf"c(q,\dot q) = {self.L(c)}", "c_i = q'^T C_i q'.")
         self.step("Factorization c = C(q, q') q'", rf"C(q,\dot q) = {self.L(C)}",
                   "Built from the Christoffel symbols, so that M' - 2C is skew-symmetric.")
@@ -406,9 +504,9 @@ class _Deriver:
         ref_cols = _split_columns(ref_rows, unknown_syms)
         order = sorted(range(len(cols)), key=lambda k: (_complexity(cols[k][1]), k))
         basis, coeff = _independent_columns([cols[k] for k in order], self._column_vars(dqr, ddqr), known)
-        Y = sp.Matrix(n, len(basis), lambda i, b: _expr(basis[b][1][i]))
+        Y = sp.Matrix(n, len(basis), lambda i, b: self.X(basis[b][1][i]))
         ref_map = {mono: vec for mono, vec in ref_cols}
-        Y_ref = sp.Matrix(n, len(basis), lambda i, b: _expr(ref_map[basis[b][0]][i]) if basis[b][0] in ref_map else 0)
+        Y_ref = sp.Matrix(n, len(basis), lambda i, b: self.X(ref_map[basis[b][0]][i]) if basis[b][0] in ref_map else 0)
         a = [sp.factor_terms(sp.expand(e)) for e in coeff]
         return Parametrization(Y, a, Y_ref, sorted(known), sorted(s.name for s in unknown_syms))
 
