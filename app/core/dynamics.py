@@ -119,12 +119,22 @@ def pretty(tp: TrigPoly, angles: Sequence[Dict[sp.Symbol, int]] = ()) -> sp.Expr
     q2 and q2 + q3), reduced with sin^2 + cos^2 = 1, and the shorter form is kept:
     cos(q3) + cos(2 q2 + q3) becomes 2 cos(q2) cos(q2 + q3)."""
     base = tp.to_expr(factor_coefficients=True)
-    if not angles or not any(max(abs(n) for _, n in freq) > 1 for (freq, _k) in tp.terms if freq):
+    natural = [dict(a) for a in angles]
+    if not natural or all(not freq or {s: n for s, n in freq} in natural for (freq, _k) in tp.terms):
         return base
     alt = _product_form(tp, list(angles))
     if alt is None:
         return base
     return alt if sp.count_ops(alt) < sp.count_ops(base) else base
+
+
+def tidy(expr, angles=()) -> sp.Expr:
+    """The shorter of the grouped form and the canonical (pretty) form of a kinematic expression."""
+    grouped = collect_trig(expr)
+    if not expr.has(sp.sin, sp.cos):
+        return grouped
+    canon = pretty(TrigPoly.from_expr(expr), angles)
+    return canon if sp.count_ops(canon) < sp.count_ops(grouped) else grouped
 
 
 def _product_form(tp: TrigPoly, angles):
@@ -200,6 +210,15 @@ def _reduce_square(expr, x, y):
 
 def _angle_expr(vec):
     return sp.Add(*[n * s for s, n in vec.items()])
+
+
+def collect_trig(expr) -> sp.Expr:
+    """Group an expanded expression by its sines and cosines: -l1 s1 dq1 - d2 s12 (dq1 + dq2)."""
+    expr = sp.expand(expr)
+    atoms = sorted(expr.atoms(sp.sin, sp.cos), key=sp.default_sort_key)
+    if not atoms:
+        return sp.factor_terms(expr)
+    return sp.collect(expr, atoms, func=sp.factor_terms)
 
 
 def _matrix(rows, angles=()) -> sp.Matrix:
@@ -288,6 +307,16 @@ class _Deriver:
         self.known = list(known)
         self.angles = natural_angles(self.kin)
 
+    def quadratic_form(self, Mi) -> sp.Expr:
+        """1/2 dq^T Mi dq written term by term: 1/2 m_jj dq_j^2 + m_jk dq_j dq_k."""
+        dq, out = self.dq, []
+        for j in range(self.n):
+            for k in range(j, self.n):
+                if Mi[j][k].terms:
+                    factor = sp.Rational(1, 2) * dq[j] ** 2 if j == k else dq[j] * dq[k]
+                    out.append(sp.Mul(factor, self.X(Mi[j][k]), evaluate=False))
+        return sp.Add(*out)
+
     def X(self, tp: TrigPoly) -> sp.Expr:
         return pretty(tp, self.angles)
 
@@ -322,9 +351,10 @@ class _Deriver:
             self.progress(0.05 + 0.45 * idx / max(1, len(robot.bodies)), f"energy of {body.name}")
             p = self.kin.com_position(body.name)
             Jv = self.kin.point_jacobian(body.name, body.com)
-            v = (Jv * dq).applyfunc(sp.expand)
+            p = p.applyfunc(lambda e: tidy(e, self.angles))
+            v = (Jv * dq).applyfunc(lambda e: tidy(e, self.angles))
             Jw = self.kin.angular_jacobian(body.name, in_body_frame=True)
-            w = (Jw * dq).applyfunc(sp.expand)
+            w = (Jw * dq).applyfunc(lambda e: tidy(e, self.angles))
             positions[body.name], velocities[body.name], omegas[body.name] = p, v, w
             Jv_tp = [[_tp(Jv[r, k]) for k in range(n)] for r in range(3)]
             Jw_tp = [[_tp(Jw[r, k]) for k in range(n)] for r in range(3)]
@@ -344,12 +374,7 @@ class _Deriver:
                     Mi[j][k] = acc.expand()
                     if k != j:
                         Mi[k][j] = Mi[j][k]
-            Ti = TrigPoly()
-            for j in range(n):
-                for k in range(n):
-                    if Mi[j][k].terms:
-                        Ti = Ti + Mi[j][k].scale(dq[j] * dq[k] / 2)
-            kinetic[body.name] = self.X(Ti.expand())
+            kinetic[body.name] = self.quadratic_form(Mi)
             for j in range(n):
                 for k in range(n):
                     M_tp[j][k] = M_tp[j][k] + Mi[j][k]

@@ -76,13 +76,59 @@ def set_coordinates(names) -> None:
     _COORDS[:] = list(names)
 
 
-def to_latex(expr, coordinates=None, **kwargs) -> str:
-    """LaTeX of a sympy object using the lab's symbol conventions."""
+_INDEXED = re.compile(r"^([A-Za-z]+)(\d)$")
+
+
+def _short_trig(expr, coords):
+    """Replace sin/cos of sums of coordinates q_i (single-digit indices, one common letter) by the
+    exam shorthand s_{12}, c_{123}; returns (expr, {placeholder: latex})."""
+    matches = [_INDEXED.match(c) for c in coords]
+    if not coords or not all(matches) or len({m.group(1) for m in matches}) != 1:
+        return expr, {}
+    index = {sp.Symbol(c, real=True): m.group(2) for c, m in zip(coords, matches)}
+    repl, names = {}, {}
+    for f in expr.atoms(sp.sin, sp.cos):
+        arg = sp.expand(f.args[0])
+        digits = []
+        for term in sp.Add.make_args(arg):
+            if term in index:
+                digits.append(index[term])
+            else:
+                digits = None
+                break
+        if not digits:
+            continue
+        label = ("s" if isinstance(f, sp.sin) else "c") + "_{" + "".join(sorted(digits)) + "}"
+        ph = sp.Symbol("zz_trig_" + label)   # sorts after the parameters: m_2 d_2 c_{12}
+        repl[f] = ph
+        names[ph] = label
+    return expr.xreplace(repl), names
+
+
+def to_latex(expr, coordinates=None, short_trig: bool = True, **kwargs) -> str:
+    """LaTeX of a sympy object using the lab's symbol conventions; sines and cosines of sums of
+    coordinates are written s_{12}, c_{1} as in the exams (``short_trig=False`` keeps sin/cos).
+
+    >>> from app.core.expressions import symbol
+    >>> q1, q2 = symbol("q1"), symbol("q2")
+    >>> to_latex(sp.cos(q1 + q2) * sp.sin(q1), ["q1", "q2"])
+    'c_{12} s_{1}'
+    """
     coords = list(coordinates) if coordinates is not None else list(_COORDS)
     expr = sp.sympify(expr)
-    if not coords:
-        coords = sorted({s.name[2:] for s in expr.free_symbols if s.name.startswith("dd")} |
-                        {s.name[1:] for s in expr.free_symbols if s.name.startswith("d") and not s.name.startswith("dd")})
+    trig_names = {}
+    if short_trig:
+        if isinstance(expr, sp.MatrixBase):
+            pairs = [_short_trig(e, coords) for e in expr]
+            for _, nm in pairs:
+                trig_names.update(nm)
+            expr = sp.Matrix(expr.rows, expr.cols, [e for e, _ in pairs])
+        else:
+            expr, trig_names = _short_trig(expr, coords)
+    if not coords:   # guess the coordinates from the derivative symbols present
+        coords = sorted({re.sub(r"_r$", "", s.name[2 if s.name.startswith("dd") else 1:])
+                         for s in expr.free_symbols if s.name.startswith("d")})
     names = {s: symbol_latex(s.name, coords) for s in expr.free_symbols if isinstance(s, sp.Symbol)}
+    names.update(trig_names)
     kwargs.setdefault("mat_delim", "(")
     return sp.latex(expr, symbol_names=names, **kwargs)
