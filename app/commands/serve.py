@@ -1,0 +1,28 @@
+"""``python -m app serve``: start the web viewer (the default command)."""
+NAME = "serve"
+HELP = "start the web viewer (default command)"
+DESCRIPTION = ("Start the Robotics II Lab page. Every browser tab gets its own robot, parameters, "
+               "camera and panels. Binds 127.0.0.1 unless --host says otherwise.")
+
+
+def add_arguments(p):
+    p.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1; 0.0.0.0 for the LAN)")
+    p.add_argument("--port", type=int, default=8080, help="port (default 8080; 0 picks a free one)")
+    p.add_argument("--robot", default=None, help="robot shown first (default planar_2r)")
+
+
+def run(args) -> int:
+    import time
+
+    from app.viewer.server import LabServer
+
+    lab = LabServer(host=args.host, port=args.port, robot=args.robot, verbose=False)
+    print(f"Robotics II Lab: open {lab.url} in a browser (Ctrl+C stops)", flush=True)
+    try:
+        while True:
+            time.sleep(3600)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        lab.stop()
+    return 0

@@ -1,0 +1,99 @@
+"""Model panel: M(q), c and C(q, q'), g(q), springs and friction, Christoffel matrices and the
+linear parametrization, typeset, each with its numeric value at the current q, q' and parameters."""
+from __future__ import annotations
+
+from typing import Callable, List, Tuple
+
+import numpy as np
+import sympy as sp
+
+from app.core.steps import to_latex
+from app.viewer import mathml
+
+TITLE = "Model"
+ORDER = 10
+
+SYMMETRIC = True
+
+
+def build(session) -> None:
+    gui = session.gui
+    dyn, robot = session.dynamics, session.robot
+    coords = list(robot.coordinates)
+    n = robot.n
+    dq_state = {"dq": np.ones(n)}
+    updaters: List[Tuple[object, Callable[[], str]]] = []
+
+    def blocks(name, matrix, entry, symmetric=False):
+        return mathml.matrix_latex_blocks(name, matrix, coords, entry, symmetric=symmetric)
+
+    def section(title, latex_blocks, numeric=None, expanded=True, note=""):
+        folder = gui.add_folder(title, expand_by_default=expanded)
+        with folder:
+            if note:
+                gui.add_html(mathml.label_html(note))
+            gui.add_html(mathml.blocks_html(latex_blocks))
+            if numeric is not None:
+                handle = gui.add_html("")
+                updaters.append((handle, numeric))
+        return folder
+
+    gui.add_html(mathml.label_html(
+        "Symbolic model of the robot file; the blue values are evaluated at the sliders' q, the "
+        "velocity q̇ below, and the current parameters."))
+    with gui.add_folder("Velocity q̇ for C and c", expand_by_default=False):
+        fields = []
+        for i, name in enumerate(coords):
+            field = gui.add_number(f"d{name}", 1.0, step=0.1, hint=f"velocity of {name} used for C(q, q̇) and c")
+            fields.append(field)
+
+        def velocity_changed(_event):
+            dq_state["dq"] = np.array([float(f.value) for f in fields])
+            refresh()
+
+        for field in fields:
+            field.on_update(velocity_changed)
+
+    num = session.numeric
+
+    def value(name_latex, fn):
+        return lambda: mathml.math_html(f"{name_latex} = {mathml.numeric_latex(fn())}", css_class="r2-num")
+
+    section("Inertia matrix M(q)", blocks("M(q)", dyn.M, "m", symmetric=True),
+            value("M", lambda: num.M(session.q)))
+    section("Coriolis and centrifugal terms c(q, q̇)", blocks(r"c(q,\dot q)", dyn.c, "c"),
+            value("c", lambda: num.c(session.q, dq_state["dq"])))
+    section("Factorization C(q, q̇) (Christoffel)", blocks(r"C(q,\dot q)", dyn.C, "c"),
+            value("C", lambda: num.C(session.q, dq_state["dq"])), expanded=False,
+            note="c = C(q, q̇) q̇ with C from the Christoffel symbols: Ṁ − 2C is skew-symmetric.")
+    section("Gravity g(q)", blocks("g(q)", dyn.g, "g"), value("g", lambda: num.g(session.q)))
+    if any(e != 0 for e in dyn.spring):
+        section("Springs k(q)", blocks("k(q)", dyn.spring, "k"), value("k", lambda: num.spring(session.q)))
+    if any(e != 0 for e in dyn.friction):
+        section("Friction", blocks(r"\tau_f", dyn.friction, r"\tau_f"),
+                value(r"\tau_f", lambda: num.friction(dq_state["dq"])))
+    christoffel = []
+    for i, Ci in enumerate(dyn.christoffel):
+        christoffel += blocks(f"C_{{{i + 1}}}(q)", Ci, f"c_{{{i + 1},}}", symmetric=True)
+    section("Christoffel matrices", christoffel, expanded=False,
+            note="c_i = q̇ᵀ C_i(q) q̇, with C_i = ½ (∂m_i/∂q + (∂m_i/∂q)ᵀ − ∂M/∂q_i).")
+
+    par = dyn.parametrization
+    a_vec = sp.Matrix(par.a)
+    symbols = [sp.Symbol(k, real=True) for k in robot.parameters]
+    a_fn = sp.lambdify([symbols], a_vec, "numpy")
+    known = ", ".join(par.known) or "none"
+    section(f"Linear parametrization Y a ({par.count} coefficients)",
+            blocks(r"Y(q,\dot q,\ddot q)", par.Y, "y") + blocks("a", a_vec, "a"),
+            value("a", lambda: np.asarray(a_fn([session.params[k] for k in robot.parameters]), float).ravel()),
+            expanded=False, note=f"τ = Y a with a minimal set of dynamic coefficients (known data: {known}).")
+    section("Adaptive regressor Y(q, q̇, q̇r, q̈r)", blocks(r"Y_r", par.Y_ref, "y"), expanded=False,
+            note="Y_r a = M q̈r + C(q, q̇) q̇r + g (+ springs, friction): the Slotine-Li regressor.")
+
+    def refresh(*_):
+        for handle, fn in updaters:
+            handle.content = fn()
+
+    refresh()
+    session.on_q_change(refresh)
+    session.on_parameters_change(refresh)

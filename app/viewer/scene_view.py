@@ -1,0 +1,331 @@
+"""The robot in one browser tab's 3D scene: draws an ``app.scene.RobotDrawing`` with viser, moves
+it, highlights bodies and joints, shows ghosts and overlays (markers, lines, trajectories, arrows,
+labels). Panels reach it as ``session.scene``; see docs/panels.md.
+"""
+from __future__ import annotations
+
+import threading
+from typing import Dict, Iterable, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from app.scene import (HIGHLIGHT_COLOR, Framing, RobotDrawing, align_z, arrow, camera_pose,
+                       quaternion_wxyz)
+
+Color = Tuple[int, int, int]
+
+ROBOT_ROOT = "/robot"
+OVERLAY_ROOT = "/overlay"
+ENV_ROOT = "/env"
+SIDE_PANEL_PX = 400      # the control panel floats over the right of the canvas
+
+
+def _node(attach: str) -> str:
+    return attach.replace("@", "__")
+
+
+def _dim(color: Color, amount: float = 0.55) -> Color:
+    """A washed-out version of a colour (towards white), for the parts that are not highlighted."""
+    return tuple(int(c + (255 - c) * amount) for c in color)
+
+
+class SceneView:
+    """One tab's 3D view of the current robot (thread-safe)."""
+
+    def __init__(self, client):
+        self.client = client
+        self.scene = client.scene
+        self.drawing: Optional[RobotDrawing] = None
+        self._lock = threading.RLock()
+        self._frames: Dict[str, object] = {}
+        self._meshes: List[Tuple[object, object]] = []       # (handle, part)
+        self._axes: List[object] = []
+        self._labels: List[object] = []
+        self._env: List[object] = []
+        self._ghosts: Dict[str, Tuple[RobotDrawing, Dict[str, object]]] = {}
+        self._overlays: Dict[str, object] = {}
+        self.options = {"frames": False, "coms": True, "labels": True, "plane": True}
+        self.highlighted: Dict[str, List[str]] = {"bodies": [], "joints": []}
+        self._frame_pending = False
+        self._camera_hooked = False
+
+    # ------------------------------------------------------------------ robot
+    def show_robot(self, drawing: RobotDrawing, q) -> None:
+        """Replace the drawn robot (and its environment) by ``drawing`` at coordinates q."""
+        with self._lock, self.client.atomic():
+            self._remove_robot()
+            self.drawing = drawing
+            r = drawing.radius
+            attaches = ["base"] + [a for b in drawing.robot.bodies for a in (f"{b.name}@joint", b.name)]
+            for attach in attaches:
+                self._frames[attach] = self.scene.add_frame(f"{ROBOT_ROOT}/{_node(attach)}", show_axes=False)
+            for part in drawing.parts:
+                mesh = part.mesh
+                handle = self.scene.add_mesh_simple(
+                    f"{ROBOT_ROOT}/{_node(part.attach)}/{part.name}", mesh.vertices.astype(np.float32),
+                    mesh.faces.astype(np.uint32), color=part.color, opacity=None if part.opacity >= 1 else part.opacity,
+                    flat_shading=False, visible=self.options["coms"] or part.role != "com")
+                self._meshes.append((handle, part))
+            for attach in ["base"] + [b.name for b in drawing.robot.bodies]:
+                self._axes.append(self.scene.add_frame(
+                    f"{ROBOT_ROOT}/{_node(attach)}/axes", show_axes=True, axes_length=4.5 * r,
+                    axes_radius=0.18 * r, origin_radius=0.3 * r, visible=self.options["frames"]))
+            for mark in drawing.joint_marks:
+                self._labels.append(self.scene.add_label(
+                    f"{ROBOT_ROOT}/{_node(mark.attach)}/label", mark.text, position=tuple(mark.position),
+                    anchor="bottom-left", font_screen_scale=1.1, visible=self.options["labels"]))
+            self._draw_environment(drawing)
+            self.set_pose(q)
+            self._apply_highlight()
+
+    def _remove_robot(self) -> None:
+        for handle in list(self._frames.values()):
+            handle.remove()
+        for handle in self._env:
+            handle.remove()
+        self._frames.clear()
+        self._meshes.clear()
+        self._axes.clear()
+        self._labels.clear()
+        self._env.clear()
+        for name in list(self._ghosts):
+            self.remove_ghost(name)
+
+    def _draw_environment(self, drawing: RobotDrawing) -> None:
+        framing = drawing.framing()
+        r = drawing.radius
+        size = 7.0 * framing.radius
+        cell = _nice_cell(size / 12)
+        if drawing.robot.is_planar:
+            # the plane of motion, behind the robot, as graph paper
+            grid = self.scene.add_grid(
+                f"{ENV_ROOT}/plane", width=size, height=size, plane="xy", cell_size=cell,
+                section_size=cell * 5, cell_color=(215, 222, 232), section_color=(170, 182, 200),
+                plane_color=(248, 250, 253), plane_opacity=1.0, shadow_opacity=0.0,
+                position=(float(framing.center[0]), float(framing.center[1]), -3.2 * r),
+                visible=self.options["plane"])
+        else:
+            up = drawing.up
+            ground = -3.5 * r * up
+            wxyz = quaternion_wxyz(align_z(up))
+            grid = self.scene.add_grid(
+                f"{ENV_ROOT}/plane", width=size, height=size, plane="xy", cell_size=cell,
+                section_size=cell * 5, cell_color=(210, 214, 220), section_color=(160, 166, 176),
+                plane_color=(245, 246, 248), plane_opacity=0.6, shadow_opacity=0.15,
+                position=tuple(ground), wxyz=tuple(wxyz), visible=self.options["plane"])
+        self._env.append(grid)
+        g = drawing.gravity
+        if np.linalg.norm(g) > 1e-12:
+            self._env.extend(self._gravity_arrow(drawing, framing))
+
+    def _gravity_arrow(self, drawing: RobotDrawing, framing: Framing):
+        up = drawing.up
+        length = 0.22 * framing.radius
+        if drawing.robot.is_planar:
+            side = np.cross(up, [0.0, 0.0, 1.0])
+        else:
+            side = np.cross(up, [1.0, 0.0, 0.0]) if abs(up[0]) < 0.9 else np.cross(up, [0.0, 1.0, 0.0])
+        if np.linalg.norm(side) < 1e-9:     # gravity normal to a horizontal plane: point into it
+            start = framing.center + 0.8 * framing.radius * np.array([1.0, 1.0, 0.0]) / np.sqrt(2)
+        else:
+            side = side / np.linalg.norm(side)
+            start = framing.center + 0.8 * framing.radius * side + 0.55 * framing.radius * up
+            if drawing.robot.is_planar:
+                start[2] = 0.0
+        mesh = arrow(start, -up * length, 0.45 * drawing.radius)
+        handle = self.scene.add_mesh_simple(f"{ENV_ROOT}/gravity", mesh.vertices.astype(np.float32),
+                                            mesh.faces.astype(np.uint32), color=(40, 60, 110))
+        label = self.scene.add_label(f"{ENV_ROOT}/gravity_label", "g",
+                                     position=tuple(start - up * length * 0.5 + 0.12 * framing.radius * side
+                                                    if np.linalg.norm(side) > 1e-9 else start),
+                                     anchor="center-left", font_screen_scale=1.3)
+        return [handle, label]
+
+    def set_pose(self, q) -> None:
+        """Move the drawn robot to coordinates q (a few pose updates, no mesh traffic)."""
+        with self._lock:
+            if self.drawing is None:
+                return
+            poses = self.drawing.poses(q)
+            with self.client.atomic():
+                for attach, handle in self._frames.items():
+                    T = poses[attach]
+                    handle.position = T[:3, 3]
+                    handle.wxyz = quaternion_wxyz(T[:3, :3])
+
+    # ------------------------------------------------------------------ display options
+    def set_option(self, name: str, value: bool) -> None:
+        """Toggle ``frames``, ``coms``, ``labels`` or ``plane``."""
+        with self._lock:
+            self.options[name] = bool(value)
+            targets = {"frames": self._axes, "labels": self._labels,
+                       "coms": [h for h, p in self._meshes if p.role == "com"],
+                       "plane": self._env[:1]}[name]
+            for handle in targets:
+                handle.visible = bool(value)
+
+    # ------------------------------------------------------------------ highlight
+    def highlight(self, bodies: Iterable[str] = (), joints: Iterable[str] = ()) -> None:
+        """Light up bodies (their links) and joints (named by their body); dim the rest."""
+        with self._lock:
+            self.highlighted = {"bodies": list(bodies), "joints": list(joints)}
+            self._apply_highlight()
+
+    def clear_highlight(self) -> None:
+        self.highlight((), ())
+
+    def _apply_highlight(self) -> None:
+        bodies, joints = set(self.highlighted["bodies"]), set(self.highlighted["joints"])
+        active = bool(bodies or joints)
+        with self.client.atomic():
+            for handle, part in self._meshes:
+                if part.role == "com":
+                    continue
+                if not active:
+                    color = part.color
+                elif part.role in ("link",) and part.body in bodies:
+                    color = HIGHLIGHT_COLOR
+                elif part.role == "joint" and part.body in joints:
+                    color = HIGHLIGHT_COLOR
+                else:
+                    color = _dim(part.color)
+                if tuple(handle.color) != tuple(color):
+                    handle.color = color
+
+    # ------------------------------------------------------------------ ghosts
+    def ghost(self, q, name: str = "ghost", color: Color = (150, 150, 150), opacity: float = 0.35) -> None:
+        """Draw (or move) a translucent copy of the robot at coordinates q."""
+        with self._lock:
+            if self.drawing is None:
+                return
+            if name not in self._ghosts or self._ghosts[name][0] is not self.drawing:
+                self.remove_ghost(name)
+                root = f"/ghost_{name}"
+                frames = {}
+                for attach in ["base"] + [a for b in self.drawing.robot.bodies for a in (f"{b.name}@joint", b.name)]:
+                    frames[attach] = self.scene.add_frame(f"{root}/{_node(attach)}", show_axes=False)
+                for part in self.drawing.parts:
+                    if part.role in ("base", "com"):
+                        continue
+                    mesh = part.mesh
+                    self.scene.add_mesh_simple(f"{root}/{_node(part.attach)}/{part.name}",
+                                               mesh.vertices.astype(np.float32), mesh.faces.astype(np.uint32),
+                                               color=color, opacity=opacity, cast_shadow=False)
+                self._ghosts[name] = (self.drawing, frames)
+            poses = self.drawing.poses(q)
+            with self.client.atomic():
+                for attach, handle in self._ghosts[name][1].items():
+                    T = poses[attach]
+                    handle.position = T[:3, 3]
+                    handle.wxyz = quaternion_wxyz(T[:3, :3])
+
+    def remove_ghost(self, name: str = "ghost") -> None:
+        with self._lock:
+            entry = self._ghosts.pop(name, None)
+            if entry is not None:
+                for handle in entry[1].values():
+                    handle.remove()
+
+    # ------------------------------------------------------------------ overlays
+    def _put(self, name: str, handle) -> object:
+        old = self._overlays.pop(name, None)
+        if old is not None and old is not handle:
+            try:
+                old.remove()
+            except Exception:     # already removed with its parent
+                pass
+        self._overlays[name] = handle
+        return handle
+
+    def add_marker(self, name: str, position, color: Color = (214, 39, 40), radius: Optional[float] = None,
+                   label: Optional[str] = None):
+        """A small sphere (and optional text) at a world position."""
+        r = radius or (1.3 * self.drawing.radius if self.drawing else 0.03)
+        handle = self.scene.add_icosphere(f"{OVERLAY_ROOT}/{name}", radius=r, color=color,
+                                          position=tuple(np.asarray(position, float)))
+        self._put(name, handle)
+        if label:
+            self.add_label(f"{name}_label", label, np.asarray(position, float) + r)
+        return handle
+
+    def add_line(self, name: str, points, color: Color = (214, 39, 40), width: float = 3.0):
+        """A polyline through world points (N x 3)."""
+        pts = np.asarray(points, dtype=np.float32).reshape(-1, 3)
+        segments = np.stack([pts[:-1], pts[1:]], axis=1)
+        handle = self.scene.add_line_segments(f"{OVERLAY_ROOT}/{name}", segments, colors=color,
+                                              line_width=width)
+        return self._put(name, handle)
+
+    def add_trajectory(self, name: str, points, color: Color = (31, 119, 180), width: float = 2.5):
+        """A path through world points, e.g. an end-effector or ball trajectory."""
+        return self.add_line(name, points, color, width)
+
+    def add_arrow(self, name: str, start, vector, color: Color = (214, 39, 40), label: Optional[str] = None):
+        """A solid arrow (force, velocity) from ``start`` along ``vector`` (world coordinates)."""
+        r = 0.5 * (self.drawing.radius if self.drawing else 0.02)
+        mesh = arrow(start, vector, r)
+        handle = self.scene.add_mesh_simple(f"{OVERLAY_ROOT}/{name}", mesh.vertices.astype(np.float32),
+                                            mesh.faces.astype(np.uint32), color=color)
+        self._put(name, handle)
+        if label:
+            self.add_label(f"{name}_label", label, np.asarray(start, float) + np.asarray(vector, float))
+        return handle
+
+    def add_label(self, name: str, text: str, position):
+        handle = self.scene.add_label(f"{OVERLAY_ROOT}/{name}", text, position=tuple(np.asarray(position, float)),
+                                      anchor="bottom-left")
+        return self._put(name, handle)
+
+    def remove_overlay(self, name: str) -> None:
+        handle = self._overlays.pop(name, None)
+        if handle is not None:
+            handle.remove()
+
+    def clear_overlays(self) -> None:
+        """Remove every marker, line, trajectory, arrow and label added by panels."""
+        with self.client.atomic():
+            for name in list(self._overlays):
+                self.remove_overlay(name)
+
+    # ------------------------------------------------------------------ camera
+    def frame_camera(self) -> None:
+        """Point the camera at the whole robot; planar robots square-on to their plane. Before the
+        browser has reported its camera, framing waits for that first report."""
+        with self._lock:
+            if self.drawing is None:
+                return
+            camera = self.client.camera
+            if camera.update_timestamp == 0.0:
+                self._frame_pending = True
+                if not self._camera_hooked:
+                    self._camera_hooked = True
+                    camera.on_update(self._first_camera_report)
+                return
+            self._frame_pending = False
+            fov = np.radians(28.0 if self.drawing.robot.is_planar else 40.0)   # little perspective
+            width = camera.image_width if camera.image_height > 0 else 1280
+            aspect = width / camera.image_height if camera.image_height > 0 else 16 / 9
+            occluded = SIDE_PANEL_PX / width if width > 2.2 * SIDE_PANEL_PX else 0.0
+            position, look_at, up = camera_pose(self.drawing.framing(), fov=fov, aspect=aspect,
+                                                occluded_right=occluded)
+            with self.client.atomic():
+                camera.fov = float(fov)
+                camera.up_direction = tuple(up)
+                camera.position = tuple(position)
+                camera.look_at = tuple(look_at)
+
+    def _first_camera_report(self, _camera) -> None:
+        if self._frame_pending:
+            self.frame_camera()
+
+
+def _nice_cell(step: float) -> float:
+    """A round grid spacing (1, 2 or 5 times a power of ten) near ``step``.
+
+    >>> _nice_cell(0.13), _nice_cell(0.04)
+    (0.1, 0.05)
+    """
+    exp = np.floor(np.log10(step))
+    base = step / 10 ** exp
+    nice = 1 if base < 1.5 else 2 if base < 3.5 else 5 if base < 7.5 else 10
+    return float(nice * 10 ** exp)

@@ -1,0 +1,129 @@
+"""Headless pictures and browser automation of the page (Debian's Chromium through Playwright).
+
+``Browser`` opens pages in headless Chromium (software WebGL); ``open_lab_page`` waits until the
+session of a tab is ready; ``capture`` starts a lab server in-process, selects a robot and a
+panel, runs optional set-up code on the server side (``setup(session)``) and in the page
+(``action(page)``), and saves a 1280x720 PNG. Tests and other panels' screenshot commands reuse
+these pieces.
+"""
+from __future__ import annotations
+
+import os
+import time
+from pathlib import Path
+from typing import Callable, Optional
+
+CHROMIUM = os.environ.get("R2LAB_CHROMIUM", "/usr/bin/chromium")
+CHROMIUM_ARGS = ["--no-sandbox", "--enable-unsafe-swiftshader", "--disable-background-networking",
+                 "--disable-component-update", "--disable-sync", "--no-first-run"]
+HIDE_NOTIFICATIONS_CSS = ".mantine-Notifications-root{display:none !important}"
+WIDTH, HEIGHT = 1280, 720
+
+
+class Browser:
+    """A headless Chromium; every ``page()`` is a fresh browser context (an independent tab)."""
+
+    def __init__(self):
+        from playwright.sync_api import sync_playwright
+        if not Path(CHROMIUM).exists():
+            raise RuntimeError(f"{CHROMIUM} not found: install Debian's chromium (make browser)")
+        self._pw = sync_playwright().start()
+        self.browser = self._pw.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS, headless=True)
+
+    def page(self, url: str, width: int = WIDTH, height: int = HEIGHT):
+        context = self.browser.new_context(viewport={"width": width, "height": height}, device_scale_factor=1)
+        page = context.new_page()
+        page.goto(url)
+        return page
+
+    def close(self) -> None:
+        try:
+            self.browser.close()
+        finally:
+            self._pw.stop()
+
+    def __enter__(self) -> "Browser":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def wait_connected(page, timeout: float = 60.0) -> None:
+    """Until viser's "Connecting..." message is gone."""
+    page.wait_for_function("() => !document.body.innerText.includes('Connecting...')", timeout=timeout * 1000)
+
+
+def wait_ready(page, robot: Optional[str] = None, timeout: float = 120.0) -> None:
+    """Until the tab's robot (any, or ``robot``) is loaded and its panels are built."""
+    wait_connected(page, timeout)
+    selector = '.r2-status[data-ready="1"]' + (f'[data-robot="{robot}"]' if robot else "")
+    page.wait_for_selector(selector, state="attached", timeout=timeout * 1000)
+    page.evaluate("() => document.fonts.ready.then(() => true)")
+
+
+def select_tab(page, title: str) -> None:
+    """Click a panel's tab by its title."""
+    page.get_by_role("tab", name=title, exact=True).first.click()
+
+
+def hide_notifications(page) -> None:
+    page.add_style_tag(content=HIDE_NOTIFICATIONS_CSS)
+
+
+def settle(page, seconds: float = 1.0) -> None:
+    """Let software WebGL draw a few frames after the last scene change."""
+    page.wait_for_timeout(int(seconds * 1000))
+
+
+def capture(robot: str, out: str | Path, panel: Optional[str] = None,
+            setup: Optional[Callable] = None, action: Optional[Callable] = None,
+            width: int = WIDTH, height: int = HEIGHT, lab=None, browser: Optional[Browser] = None) -> Path:
+    """Save a picture of the page showing ``robot`` with the tab ``panel`` open.
+
+    ``setup(session)`` runs on the server once the robot's panels are ready (set q, open a step,
+    load a run); ``action(page)`` runs in the browser before the shot (clicks, scrolling). A lab
+    server (``LabServer``) and a ``Browser`` may be passed to reuse them across pictures."""
+    from app.viewer.server import LabServer
+    own_lab = lab is None
+    lab = lab or LabServer(port=0, robot=robot, verbose=False)
+    own_browser = browser is None
+    browser = browser or Browser()
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        before = set(lab.sessions)
+        lab.initial_robot = robot
+        page = browser.page(lab.url, width, height)
+        try:
+            wait_ready(page, robot)
+            session = _new_session(lab, before)
+            hide_notifications(page)
+            if panel:
+                select_tab(page, panel)
+            if setup is not None:
+                setup(session)
+                session.ready.wait(60)
+                wait_ready(page, session.robot_name)
+            if action is not None:
+                action(page)
+            settle(page, 1.5)
+            page.screenshot(path=str(out))
+        finally:
+            page.context.close()
+    finally:
+        if own_browser:
+            browser.close()
+        if own_lab:
+            lab.stop()
+    return out
+
+
+def _new_session(lab, before, timeout: float = 30.0):
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        new = [s for cid, s in list(lab.sessions.items()) if cid not in before]
+        if new:
+            return new[-1]
+        time.sleep(0.05)
+    raise RuntimeError("the page connected but no session appeared")

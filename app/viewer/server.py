@@ -1,0 +1,106 @@
+"""The lab's web server: a viser server whose every browser tab gets its own ``Session``.
+
+>>> import contextlib, io
+>>> with contextlib.redirect_stdout(io.StringIO()):   # viser's start-up banner
+...     lab = LabServer(port=0, verbose=False)
+>>> lab.url.startswith("http://127.0.0.1:")
+True
+>>> lab.stop()
+"""
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Dict, List, Optional, Tuple
+
+import viser
+
+from app.core.robot import RobotModel, list_robot_names, load_robot, robot_path
+from app.viewer.session import Session
+
+DEFAULT_ROBOT = "planar_2r"
+
+
+@dataclass(frozen=True)
+class RobotInfo:
+    """What the robot picker shows about a robot file."""
+    name: str
+    title: str
+    group: str
+    description: str
+    dof: int
+
+
+class LabServer:
+    """Serves the lab on ``host:port`` (port 0 picks a free one). Robots are loaded once and shared
+    by all sessions (reloaded when their file changes); each tab has its own state."""
+
+    def __init__(self, host: str = "127.0.0.1", port: int = 8080, robot: Optional[str] = None,
+                 verbose: bool = True):
+        self._robots: Dict[str, Tuple[float, RobotModel]] = {}
+        self._catalog: Dict[str, Tuple[float, RobotInfo]] = {}
+        self._lock = threading.Lock()
+        self.sessions: Dict[int, Session] = {}
+        self.session_hooks: List[Callable[[Session], None]] = []
+        names = list_robot_names()
+        if robot is not None:
+            self.robot(robot)          # fail early (UserError) on an unknown robot
+        self.initial_robot = robot or (DEFAULT_ROBOT if DEFAULT_ROBOT in names else names[0])
+        self.viser = viser.ViserServer(host=host, port=port, label="Robotics II Lab", verbose=verbose)
+        self.viser.on_client_connect(self._connect)
+        self.viser.on_client_disconnect(self._disconnect)
+
+    @property
+    def url(self) -> str:
+        host = self.viser.get_host()
+        shown = "127.0.0.1" if host in ("0.0.0.0", "") else host
+        return f"http://{shown}:{self.viser.get_port()}"
+
+    def stop(self) -> None:
+        for session in list(self.sessions.values()):
+            session.close()
+        self.viser.stop()
+
+    # ------------------------------------------------------------------ robots
+    def robot(self, name: str) -> RobotModel:
+        """The robot named ``name`` (cached; reloaded when its file changed)."""
+        path = robot_path(name)
+        mtime = Path(path).stat().st_mtime
+        with self._lock:
+            cached = self._robots.get(name)
+        if cached is not None and cached[0] == mtime:
+            return cached[1]
+        robot = load_robot(name)
+        with self._lock:
+            self._robots[name] = (mtime, robot)
+        return robot
+
+    def catalog(self) -> List[RobotInfo]:
+        """Every shipped robot (files are read again only when they change); broken files are
+        left out of the picker (``python -m app robots`` reports them)."""
+        out = []
+        for name in list_robot_names():
+            try:
+                mtime = robot_path(name).stat().st_mtime
+                cached = self._catalog.get(name)
+                if cached is None or cached[0] != mtime:
+                    r = self.robot(name)
+                    cached = (mtime, RobotInfo(name, r.title, r.group, r.description, r.n))
+                    self._catalog[name] = cached
+                out.append(cached[1])
+            except Exception:    # a file being written by someone else, or broken: skip it
+                continue
+        return out
+
+    # ------------------------------------------------------------------ sessions
+    def _connect(self, client) -> None:
+        session = Session(self, client)
+        self.sessions[client.client_id] = session
+        for hook in list(self.session_hooks):
+            hook(session)
+
+    def _disconnect(self, client) -> None:
+        session = self.sessions.pop(client.client_id, None)
+        if session is not None:
+            session.close()

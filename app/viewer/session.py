@@ -1,0 +1,576 @@
+"""One browser tab of the lab: its robot, parameter values, coordinates, camera, panels.
+
+The page is built per tab: a header (robot picker, description, pinocchio check badge, progress
+bars), the joint-coordinate sliders, the parameter fields, display options, and a tab group with
+one tab per panel (app/panels). Panels receive this ``Session``; docs/panels.md documents what
+they may use.
+"""
+from __future__ import annotations
+
+import html
+import math
+import threading
+import time
+import traceback
+from concurrent.futures import Future, ThreadPoolExecutor
+from typing import Callable, Dict, List, Mapping, Optional
+
+import numpy as np
+
+from app.core.dynamics import derive
+from app.core.errors import UserError
+from app.core.expressions import ExpressionError, parse_expression
+from app.core.numeric import NumericModel, ParameterError, cross_check
+from app.panels import PanelSpec, discover_panels_with_errors
+from app.scene import RobotDrawing, default_q
+from app.viewer import mathml
+from app.viewer.scene_view import SceneView
+
+# order of the page's fixed elements (panels' tab group comes last)
+ORDER_STYLE, ORDER_PICKER, ORDER_INFO, ORDER_BADGE, ORDER_PROGRESS = 0, 1, 3, 4, 5
+ORDER_COORDS, ORDER_PARAMS, ORDER_DISPLAY, ORDER_TABS = 10, 11, 12, 100
+
+GROUP_LABELS = {"exam": "Exam robots", "throwing": "Throwing arm", "catching": "Catching arm",
+                "other": "Other robots"}
+
+NEGATIVE_NOT_ALLOWED = ("mass", "inertia", "stiffness", "friction")
+
+
+def parse_parameter(robot, name: str, text: str) -> float:
+    """The value typed into a parameter field: a number or a constant expression (``0.5``, ``1/3``,
+    ``pi/4``), finite, and not negative for masses, inertias, stiffnesses and friction.
+
+    >>> from app.core.robot import load_robot
+    >>> parse_parameter(load_robot("planar_2r"), "m1", " 2.5 ")
+    2.5
+    >>> parse_parameter(load_robot("planar_2r"), "m1", "-1")
+    Traceback (most recent call last):
+    ...
+    app.core.numeric.ParameterError: m1: a mass must not be negative (got -1)
+    """
+    text = (text or "").strip()
+    if not text:
+        raise ParameterError(f"{name}: empty value; type a number")
+    try:
+        value = float(parse_expression(text, allowed_names=()))
+    except (ExpressionError, TypeError, ValueError):
+        raise ParameterError(f"{name}: '{text}' is not a number") from None
+    if not np.isfinite(value):
+        raise ParameterError(f"{name}: expected a finite number, got '{text}'")
+    kind = robot.parameters[name].kind
+    if kind in NEGATIVE_NOT_ALLOWED and value < 0:
+        raise ParameterError(f"{name}: a {kind} must not be negative (got {value:g})")
+    return value
+
+
+def format_number(value: float) -> str:
+    """Short text of a number for a field: ``0.5``, ``9.81``, ``1e-06``."""
+    return f"{value:.6g}"
+
+
+class Coalescer:
+    """Runs ``fn()`` in a worker thread after ``request()``, merging requests that arrive while it
+    runs, at most once per ``interval`` seconds: a slider dragged at any speed causes at most one
+    pending update, always with the latest state."""
+
+    def __init__(self, fn: Callable[[], None], interval: float = 0.0, on_error=None):
+        self.fn, self.interval, self.on_error = fn, interval, on_error
+        self._lock = threading.Lock()
+        self._pending = False
+        self._running = False
+
+    def request(self) -> None:
+        with self._lock:
+            self._pending = True
+            if self._running:
+                return
+            self._running = True
+        threading.Thread(target=self._loop, daemon=True).start()
+
+    def _loop(self) -> None:
+        while True:
+            with self._lock:
+                if not self._pending:
+                    self._running = False
+                    return
+                self._pending = False
+            start = time.perf_counter()
+            try:
+                self.fn()
+            except Exception as exc:   # keep the worker alive; report
+                if self.on_error:
+                    self.on_error(exc)
+            rest = self.interval - (time.perf_counter() - start)
+            if rest > 0:
+                time.sleep(rest)
+
+
+class Session:
+    """State and page of one browser tab. Panels use the attributes and methods documented in
+    docs/panels.md; everything starting with ``_`` is private."""
+
+    def __init__(self, lab, client):
+        self.lab = lab
+        self.client = client
+        self.gui = client.gui
+        self.scene = SceneView(client)
+        self.robot = None
+        self.robot_name = ""                    # the name it was loaded by (file stem)
+        self.dynamics = None
+        self.numeric: Optional[NumericModel] = None
+        self.drawing: Optional[RobotDrawing] = None
+        self.q = np.zeros(0)
+        self.params: Dict[str, float] = {}
+        self.state: Dict[str, object] = {}      # panels' state kept across robot switches
+        self.generation = 0
+        self.ready = threading.Event()          # set when the robot's panels are built
+        self._lock = threading.RLock()
+        self._executor = ThreadPoolExecutor(max_workers=2, thread_name_prefix=f"session{client.client_id}")
+        self._listeners: Dict[str, List] = {"robot": [], "parameters": [], "q": []}
+        self._owner = threading.local()
+        self._sliders: List = []
+        self._param_fields: Dict[str, object] = {}
+        self._tabs = None
+        self._tab_handles: Dict[str, object] = {}
+        self._tab_titles: List[str] = []
+        self._panel_errors: List[str] = []
+        self._pose_job = Coalescer(self._apply_pose, 0.0, self._internal_error)
+        self._q_job = Coalescer(lambda: self._fire("q", self.q.copy()), 0.05, self._internal_error)
+        self._param_job = Coalescer(self._apply_parameters, 0.05, self._internal_error)
+        self._check_job = Coalescer(self._run_check, 0.2, self._internal_error)
+        self._build_page()
+
+    # ================================================================== public API for panels
+    @property
+    def coordinates(self) -> List[str]:
+        return list(self.robot.coordinates) if self.robot else []
+
+    @property
+    def ranges(self) -> Dict[str, tuple]:
+        """Slider range (lo, hi) of every coordinate."""
+        return dict(self.drawing.ranges) if self.drawing else {}
+
+    def set_q(self, q) -> None:
+        """Move the robot (scene and sliders) to coordinates q."""
+        q = np.asarray(q, dtype=float).reshape(-1)
+        if q.size != len(self.coordinates):
+            raise ValueError(f"expected {len(self.coordinates)} coordinates, got {q.size}")
+        with self._lock:
+            self.q = q.copy()
+            for slider, value in zip(self._sliders, q):
+                lo, hi = slider.min, slider.max
+                slider.value = float(min(max(value, lo), hi))
+        self._pose_job.request()
+        self._q_job.request()
+
+    def set_parameters(self, values: Mapping[str, float]) -> None:
+        """Change parameter values (validated; raises ParameterError and changes nothing if bad)."""
+        checked = {}
+        for name, value in values.items():
+            if name not in self.params:
+                raise ParameterError(f"unknown parameter '{name}'")
+            checked[name] = parse_parameter(self.robot, name, format_number(float(value)))
+        with self._lock:
+            self.params.update(checked)
+            for name, value in checked.items():
+                field = self._param_fields.get(name)
+                if field is not None:
+                    field.value = format_number(value)
+        self._param_job.request()
+
+    def on_q_change(self, callback: Callable[[np.ndarray], None]) -> None:
+        """Call ``callback(q)`` after the coordinates change (at most ~20 times per second)."""
+        self._add_listener("q", callback)
+
+    def on_parameters_change(self, callback: Callable[[Dict[str, float]], None]) -> None:
+        """Call ``callback(values)`` after a parameter value changes (model already updated)."""
+        self._add_listener("parameters", callback)
+
+    def on_robot_change(self, callback: Callable[[object], None]) -> None:
+        """Call ``callback(robot)`` after another robot is loaded (for panels with REBUILD = False)."""
+        self._add_listener("robot", callback)
+
+    def notify(self, title: str, body: str = "", error: bool = False) -> None:
+        """A notification in the corner of the page (red and longer-lived for errors)."""
+        self.client.add_notification(title, body, color="red" if error else "blue",
+                                     auto_close_seconds=15.0 if error else 6.0, with_close_button=True)
+
+    def run_in_background(self, fn: Callable, progress_title: str,
+                          on_done: Optional[Callable] = None) -> Future:
+        """Run ``fn(progress)`` off the event thread; ``progress(fraction, message)`` drives a
+        progress bar (shown when the job takes more than 0.3 s). ``on_done(result)`` runs after a
+        success. A ``UserError`` becomes a clear notification, any other exception a notification
+        with the error; the page keeps working either way."""
+        return self._executor.submit(self._job, fn, progress_title, on_done)
+
+    def math_html(self, latex: str, display: bool = True) -> str:
+        """HTML (for ``gui.add_html``) of a LaTeX formula, typeset as MathML with the math font."""
+        return mathml.math_html(latex, display)
+
+    # ================================================================== page
+    def _build_page(self) -> None:
+        gui = self.gui
+        gui.configure_theme(control_width="large", show_logo=False, show_share_button=False,
+                            brand_color=(46, 94, 170))
+        gui.add_html(mathml.font_style(), order=ORDER_STYLE)
+        catalog = self.lab.catalog()
+        self._catalog = catalog
+        groups = [g for g in GROUP_LABELS if any(info.group == g for info in catalog)]
+        self._group_options = {GROUP_LABELS[g]: g for g in groups}
+        initial = self.lab.initial_robot
+        initial_info = next((i for i in catalog if i.name == initial), catalog[0])
+        self._group_dropdown = gui.add_dropdown(
+            "Group", list(self._group_options), initial_value=GROUP_LABELS[initial_info.group],
+            order=ORDER_PICKER, hint="Exam robots, the throwing arm of the VHC thesis, the catching arm")
+        self._robot_dropdown = gui.add_dropdown(
+            "Robot", self._robot_options(initial_info.group), initial_value=self._option_of(initial_info),
+            order=ORDER_PICKER + 0.5, hint="Pick a robot: scene, sliders and panels follow")
+        self._info = gui.add_html("", order=ORDER_INFO)
+        self._badge = gui.add_html(self._badge_html("pending", "pinocchio cross-check: waiting for the model"),
+                                   order=ORDER_BADGE)
+        self._status = gui.add_html('<span class="r2-status" data-ready="0"></span>', order=ORDER_BADGE + 0.5)
+        self._coord_folder = gui.add_folder("Joint coordinates", order=ORDER_COORDS)
+        self._param_folder = gui.add_folder("Parameters", order=ORDER_PARAMS, expand_by_default=False)
+        display = gui.add_folder("Display", order=ORDER_DISPLAY, expand_by_default=False)
+        with display:
+            for key, label, hint in (("frames", "Body frames", "axes of every body frame (x red, y green, z blue)"),
+                                     ("coms", "Centres of mass", "the CoM of every link"),
+                                     ("labels", "Joint labels", "the joint variable at every joint"),
+                                     ("plane", "Plane / ground", "the plane of motion or the ground grid")):
+                box = gui.add_checkbox(label, self.scene.options[key], hint=hint)
+                box.on_update(lambda event, key=key: self.scene.set_option(key, event.target.value))
+            gui.add_button("Frame the robot", hint="camera back to the full view").on_click(
+                lambda _: self.scene.frame_camera())
+
+        @self._group_dropdown.on_update
+        def _(event):
+            if event.client is None:
+                return
+            group = self._group_options[self._group_dropdown.value]
+            options = self._robot_options(group)
+            self._robot_dropdown.options = options
+            self._robot_dropdown.value = options[0]
+            self._load_selected()
+
+        @self._robot_dropdown.on_update
+        def _(event):
+            if event.client is None:
+                return
+            self._load_selected()
+
+        specs, errors = discover_panels_with_errors()
+        self._panel_specs = specs
+        for err in errors:
+            self.notify("A panel failed to load", err.splitlines()[0], error=True)
+        self.load_robot(initial_info.name)
+
+    def _robot_options(self, group: str) -> List[str]:
+        return [self._option_of(i) for i in self._catalog if i.group == group]
+
+    def _option_of(self, info) -> str:
+        same = [i for i in self._catalog if i.title == info.title]
+        return info.title if len(same) == 1 else f"{info.title} ({info.name})"
+
+    def _load_selected(self) -> None:
+        option = self._robot_dropdown.value
+        info = next((i for i in self._catalog if self._option_of(i) == option), None)
+        if info is not None and info.name != self.robot_name:
+            self.load_robot(info.name)
+
+    # ================================================================== robot switching
+    def load_robot(self, name: str) -> None:
+        """Replace the robot: scene, sliders and parameters at once, panels when the model is ready."""
+        try:
+            robot = self.lab.robot(name)
+            drawing = RobotDrawing(robot)
+        except UserError as exc:
+            self.notify(f"Cannot load {name}", str(exc), error=True)
+            return
+        with self._lock:
+            self.generation += 1
+            generation = self.generation
+            self.ready.clear()
+            self.robot, self.drawing, self.robot_name = robot, drawing, name
+            self.dynamics, self.numeric = None, None
+            self.params = robot.parameter_values()
+            self.q = default_q(robot)
+            with self.client.atomic():
+                self._status.content = f'<span class="r2-status" data-ready="0" data-robot="{name}"></span>'
+                self._info.content = self._info_html(robot)
+                self._badge.content = self._badge_html("pending", "pinocchio cross-check: waiting for the model")
+                self.scene.clear_overlays()
+                self.scene.show_robot(drawing, self.q)
+                self._build_coordinates()
+                self._build_parameters()
+            self.scene.frame_camera()
+            self._sync_picker(name)
+
+        def work(progress):
+            return derive(robot, progress=progress)
+
+        self.run_in_background(work, f"Deriving the model of {robot.title}",
+                               on_done=lambda dyn: self._model_ready(generation, dyn))
+
+    def _sync_picker(self, name: str) -> None:
+        info = next((i for i in self._catalog if i.name == name), None)
+        if info is None:
+            return
+        group_label = GROUP_LABELS[info.group]
+        if self._group_dropdown.value != group_label:
+            self._group_dropdown.value = group_label
+            self._robot_dropdown.options = self._robot_options(info.group)
+        self._robot_dropdown.value = self._option_of(info)
+
+    def _model_ready(self, generation: int, dynamics) -> None:
+        with self._lock:
+            if generation != self.generation:
+                return
+            self.dynamics = dynamics
+            self.numeric = NumericModel(self.robot, self.params, dynamics=dynamics)
+        self._build_panels()
+        with self._lock:
+            if generation != self.generation:
+                return
+            self._fire("robot", self.robot)
+            self._status.content = f'<span class="r2-status" data-ready="1" data-robot="{self.robot_name}"></span>'
+            self.ready.set()
+        self._check_job.request()
+
+    # ================================================================== header widgets
+    def _info_html(self, robot) -> str:
+        kind = "planar, " + robot.plane + " plane" if robot.plane else "spatial"
+        joints = "".join("R" if b.joint.type == "revolute" else "P" if b.joint.type == "prismatic" else ""
+                         for b in robot.bodies)
+        passive = [c for c, a in zip(robot.coordinates, robot.actuated) if not a]
+        extra = f" · passive: {', '.join(passive)}" if passive else ""
+        return (f'<div style="font-size:0.86em;line-height:1.35;color:#333">'
+                f"<b>{html.escape(robot.title)}</b><br>{html.escape(robot.description)}"
+                f'<div style="color:#777;margin-top:2px">{html.escape(robot.name)} · {robot.n} DOF · '
+                f"{joints} · {kind}{extra}</div></div>")
+
+    @staticmethod
+    def _badge_html(state: str, text: str) -> str:
+        colors = {"ok": ("#1e7b34", "#e6f4ea", "&#10004;"), "bad": ("#b3261e", "#fce8e6", "&#10008;"),
+                  "pending": ("#5f6368", "#f1f3f4", "&#8943;")}
+        fg, bg, icon = colors[state]
+        return (f'<div class="r2-badge" data-state="{state}" style="font-size:0.82em;color:{fg};background:{bg};'
+                f'border-radius:6px;padding:3px 8px;margin:2px 0">{icon} {html.escape(text)}</div>')
+
+    def _build_coordinates(self) -> None:
+        for slider in self._sliders:
+            slider.remove()
+        self._sliders = []
+        robot, ranges = self.robot, self.drawing.ranges
+        prismatic = {s.name for b in robot.bodies if b.joint.type == "prismatic" for s in b.joint.value.free_symbols}
+        with self._coord_folder:
+            for i, name in enumerate(robot.coordinates):
+                lo, hi = ranges[name]
+                unit = "m" if name in prismatic else "rad"
+                step = (hi - lo) / 1000 if name in prismatic else 0.001
+                lo, hi = math.floor(lo * 1000) / 1000, math.ceil(hi * 1000) / 1000
+                slider = self.gui.add_slider(name, min=float(lo), max=float(hi), step=float(step),
+                                             initial_value=float(self.q[i]),
+                                             hint=f"{name} [{unit}], range [{lo:.3g}, {hi:.3g}]")
+                slider.on_update(self._slider_moved)
+                self._sliders.append(slider)
+
+    def _slider_moved(self, event) -> None:
+        if event.client is None:       # set by the server (set_q): already applied
+            return
+        with self._lock:
+            if not self._sliders or event.target not in self._sliders:
+                return
+            self.q = np.array([s.value for s in self._sliders], dtype=float)
+        self._pose_job.request()
+        self._q_job.request()
+
+    def _apply_pose(self) -> None:
+        with self._lock:
+            q = self.q.copy()
+        self.scene.set_pose(q)
+
+    def _build_parameters(self) -> None:
+        for field in self._param_fields.values():
+            field.remove()
+        self._param_fields = {}
+        robot = self.robot
+        with self._param_folder:
+            for name, p in robot.parameters.items():
+                unit = f" [{p.unit}]" if p.unit else ""
+                field = self.gui.add_text(f"{name}{unit}", format_number(self.params[name]),
+                                          hint=(p.doc or p.kind) + f" (default {format_number(p.value)})")
+                field.on_update(lambda event, name=name: self._parameter_typed(name, event))
+                self._param_fields[name] = field
+
+    def _parameter_typed(self, name: str, event) -> None:
+        if event.client is None:
+            return
+        field = event.target
+        with self._lock:
+            if self._param_fields.get(name) is not field:
+                return
+            try:
+                value = parse_parameter(self.robot, name, field.value)
+            except ParameterError as exc:
+                self.notify("Parameter not changed", f"{exc}; keeping {name} = {format_number(self.params[name])}",
+                            error=True)
+                field.value = format_number(self.params[name])
+                return
+            if value == self.params[name]:
+                return
+            self.params[name] = value
+        self._param_job.request()
+
+    def _apply_parameters(self) -> None:
+        with self._lock:
+            values = dict(self.params)
+            robot = self.robot
+            if self.numeric is not None:
+                self.numeric.set_parameters(values)
+            drawing = RobotDrawing(robot, values)
+            self.drawing = drawing
+            self.scene.show_robot(drawing, self.q)
+        self._fire("parameters", values)
+        self._check_job.request()
+
+    def _run_check(self) -> None:
+        with self._lock:
+            robot, values, generation = self.robot, dict(self.params), self.generation
+            ready = self.numeric is not None
+        if not ready:
+            return
+        self._badge.content = self._badge_html("pending", "pinocchio cross-check: running")
+        try:
+            result = cross_check(robot, values, states=30)
+        except Exception as exc:
+            text, state = f"pinocchio cross-check failed: {exc}", "bad"
+        else:
+            worst = max(result.max_rel_error.values()) if result.max_rel_error else 0.0
+            if result.ok:
+                text, state = f"pinocchio agrees: M, C q̇, g to {worst:.0e} at {result.states} random states", "ok"
+            else:
+                errs = ", ".join(f"{k} {v:.1e}" for k, v in result.max_rel_error.items())
+                text, state = f"pinocchio disagrees: {errs}", "bad"
+        with self._lock:
+            if generation == self.generation and values == self.params:
+                self._badge.content = self._badge_html(state, text)
+
+    # ================================================================== panels
+    def _build_panels(self) -> None:
+        robot = self.robot
+        specs = [s for s in self._panel_specs if self._safe_applies(s, robot)]
+        titles = [s.title for s in specs]
+        fresh = self._tabs is None or titles != self._tab_titles
+        if fresh:
+            if self._tabs is not None:
+                self._tabs.remove()
+            self._tabs = self.gui.add_tab_group(order=ORDER_TABS)
+            self._tab_handles = {s.name: self._tabs.add_tab(s.title) for s in specs}
+            self._tab_titles = titles
+        for spec in specs:
+            if not fresh and not spec.rebuild:
+                continue
+            tab = self._tab_handles[spec.name]
+            self._drop_listeners(spec.name)
+            for child in tuple(tab._children.values()):   # empty the tab (viser has no public clear)
+                child.remove()
+            self._owner.name = spec.name
+            try:
+                with tab:
+                    spec.build(self)
+            except UserError as exc:
+                with tab:
+                    self.gui.add_markdown(f"**{spec.title}**: {exc}")
+            except Exception:
+                detail = traceback.format_exc(limit=4)
+                with tab:
+                    self.gui.add_markdown(f"**{spec.title}** could not be built for this robot "
+                                          f"(internal error):\n\n```\n{detail[-1200:]}\n```")
+                self.notify(f"Panel {spec.title} failed", detail.strip().splitlines()[-1], error=True)
+            finally:
+                self._owner.name = None
+
+    @staticmethod
+    def _safe_applies(spec: PanelSpec, robot) -> bool:
+        try:
+            return spec.applies_to(robot)
+        except Exception:
+            return False
+
+    # ================================================================== listeners and jobs
+    def _add_listener(self, kind: str, callback) -> None:
+        owner = getattr(self._owner, "name", None)
+        with self._lock:
+            self._listeners[kind].append((owner, callback))
+
+    def _drop_listeners(self, owner: str) -> None:
+        with self._lock:
+            for kind in self._listeners:
+                self._listeners[kind] = [(o, cb) for o, cb in self._listeners[kind] if o != owner]
+
+    def _fire(self, kind: str, value) -> None:
+        with self._lock:
+            callbacks = list(self._listeners[kind])
+        for owner, cb in callbacks:
+            try:
+                cb(value)
+            except UserError as exc:
+                self.notify("Input problem", str(exc), error=True)
+            except Exception:
+                self._internal_error(None, owner)
+
+    def _internal_error(self, exc=None, owner=None) -> None:
+        detail = traceback.format_exc(limit=4)
+        print(detail, flush=True)
+        where = f" in panel {owner}" if owner else ""
+        last = detail.strip().splitlines()[-1] if detail.strip() else repr(exc)
+        self.notify(f"Internal error{where}", last, error=True)
+
+    def _job(self, fn, title: str, on_done):
+        state = {"bar": None, "label": None, "fraction": 0.0, "message": "", "done": False}
+        lock = threading.Lock()
+        def show():
+            with lock:
+                if state["done"] or state["bar"] is not None:
+                    return
+                state["label"] = self.gui.add_html(self._progress_html(title, state["message"]),
+                                                   order=ORDER_PROGRESS)
+                state["bar"] = self.gui.add_progress_bar(max(0.0, min(100.0, 100 * state["fraction"])),
+                                                         animated=True, order=ORDER_PROGRESS + 0.1)
+
+        timer = threading.Timer(0.3, show)
+        timer.daemon = True
+        timer.start()
+
+        def progress(fraction: float, message: str = "") -> None:
+            with lock:
+                state["fraction"], state["message"] = float(fraction), message
+                if state["bar"] is not None:
+                    state["bar"].value = max(0.0, min(100.0, 100 * float(fraction)))
+                    state["label"].content = self._progress_html(title, message)
+
+        try:
+            result = fn(progress)
+            if on_done is not None:
+                on_done(result)
+            return result
+        except UserError as exc:
+            self.notify(title, str(exc), error=True)
+        except Exception:
+            self._internal_error()
+        finally:
+            timer.cancel()
+            with lock:
+                state["done"] = True
+                for key in ("bar", "label"):
+                    if state[key] is not None:
+                        state[key].remove()
+        return None
+
+    @staticmethod
+    def _progress_html(title: str, message: str) -> str:
+        return (f'<div style="font-size:0.85em;color:#333">{html.escape(title)}'
+                f'{" — " + html.escape(message) if message else ""}</div>')
+
+    def close(self) -> None:
+        self._executor.shutdown(wait=False, cancel_futures=True)
