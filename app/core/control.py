@@ -1,0 +1,761 @@
+"""The controllers of the course, as objects a simulation samples at a fixed rate.
+
+Each controller has a ``name`` (used on the command line), a ``title``, its law as LaTeX in the
+notation of the exams (``law_latex``: e = q_d - q, M(q) the inertia matrix, c the Coriolis and
+centrifugal terms, g the gravity vector, including spring terms k(q) when the robot has springs,
+n = c + g + friction), a ``closed_loop`` note, and documented gains (``gain_specs``). A controller
+is set up once for a robot (``setup``), told its reference (``begin``) and then called at every
+sample: ``step(k, t, q, dq, qd, dqd, ddqd) -> tau``. Signals worth plotting (estimates, residuals,
+forces) are its ``internals``.
+
+Gains are given by name, case-insensitively: ``Kp=100`` sets every entry, ``Kp2=50`` only the
+second one (entries follow the reference coordinates, or the coefficients for Gamma).
+
+>>> ct = make_controller("computed_torque", {"Kp": 100, "Kd2": 30})
+>>> ct.law_latex
+'\\\\tau = M(q)\\\\left(\\\\ddot q_d + K_D \\\\dot e + K_P e\\\\right) + c(q,\\\\dot q) + g(q)'
+>>> sorted(CONTROLLERS)[:3]
+['adaptive', 'admittance', 'computed_torque']
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable, Dict, List, Mapping, Optional, Sequence, Tuple
+
+import numpy as np
+import sympy as sp
+
+from .errors import UserError
+from .expressions import ExpressionError, parse_expression
+
+
+class GainError(UserError):
+    """Unknown or unacceptable gain, or a controller that does not fit the robot."""
+
+
+class ControlStop(Exception):
+    """Raised by a controller inside a run to stop it with a message (e.g. a singular matrix)."""
+
+
+@dataclass(frozen=True)
+class Gain:
+    """A gain: ``size`` is 'ref' (one per reference coordinate), 'one' (a scalar) or 'param' (one
+    per estimated coefficient); ``positive``: must be > 0 (else >= 0); ``per_inertia``: the default
+    is multiplied by the diagonal entry M_ii(q0) of the controller's model, so that default
+    torque-level gains fit robots of any size (default * M_ii = w^2 M_ii for Kp = w^2)."""
+    name: str
+    default: float
+    doc: str
+    unit: str = ""
+    size: str = "ref"
+    positive: bool = True
+    per_inertia: bool = False
+
+
+@dataclass
+class ControlSetup:
+    """What a controller may know: the robot, its own model (``model``: sim.ModelTerms at the
+    controller's parameter values), the control period, which joints are actuated, the initial
+    state, task points (``make_point(name)`` -> sim.TaskPoint), the surfaces in the scene
+    ((name, kind, normal, offset) tuples, kind 'rigid' or 'wall') and a force sensor
+    (``read_force(point_name)`` -> force on the robot at that point, or None)."""
+    robot: object
+    model: object
+    period: float
+    actuated: np.ndarray
+    q0: np.ndarray
+    dq0: np.ndarray
+    make_point: Callable = None
+    task_point: Optional[object] = None
+    surfaces: List[tuple] = field(default_factory=list)
+    read_force: Callable = None
+
+
+# ====================================================================== base class
+class Controller:
+    """Base class; subclasses set the class attributes and implement ``step``."""
+    name = ""
+    title = ""
+    law_latex = ""
+    closed_loop = ""
+    gain_specs: Tuple[Gain, ...] = ()
+    needs_full_actuation = False
+
+    def __init__(self, gains: Optional[Mapping[str, float]] = None):
+        self._requested: Dict[str, float] = {}
+        self.internal_names: List[str] = []
+        self.gain_arrays: Dict[str, np.ndarray] = {}
+        if gains:
+            self.set_gains(gains)
+
+    # -------------------------------------------------------------- gains
+    def _split(self, key: str) -> Tuple[Gain, Optional[int]]:
+        specs = {g.name.lower(): g for g in self.gain_specs}
+        low = key.strip().lower()
+        if low in specs:
+            return specs[low], None
+        base = low.rstrip("0123456789")
+        if base in specs and base != low:
+            return specs[base], int(low[len(base):])
+        names = ", ".join(g.name for g in self.gain_specs) or "none"
+        raise GainError(f"{self.name}: unknown gain '{key}' (its gains: {names}; add an index for one entry, e.g. Kp2)")
+
+    def set_gains(self, gains: Mapping[str, float]) -> None:
+        for key, value in gains.items():
+            spec, index = self._split(key)
+            try:
+                value = float(value)
+            except (TypeError, ValueError):
+                raise GainError(f"{self.name}: {key} must be a number, got {value!r}") from None
+            if not math.isfinite(value):
+                raise GainError(f"{self.name}: {key} must be finite")
+            if spec.positive and value <= 0:
+                raise GainError(f"{self.name}: {key} must be positive (got {value:g})")
+            if not spec.positive and value < 0:
+                raise GainError(f"{self.name}: {key} must not be negative (got {value:g})")
+            if index is not None and index < 1:
+                raise GainError(f"{self.name}: gain indices start at 1 ({key})")
+            self._requested[key.strip()] = value
+
+    def _gain_size(self, spec: Gain) -> int:
+        return {"ref": len(self.reference_names), "one": 1}.get(spec.size, 1)
+
+    def _resolve_gains(self) -> None:
+        arrays = {}
+        for spec in self.gain_specs:
+            size = self._gain_size(spec)
+            arr = np.full(size, float(spec.default))
+            if spec.per_inertia:
+                arr = arr * np.diag(self.model.M(self.s.q0))[self.ref_index]
+            for key, value in self._requested.items():
+                s, index = self._split(key)
+                if s is spec and index is None:
+                    arr[:] = value
+            for key, value in self._requested.items():
+                s, index = self._split(key)
+                if s is spec and index is not None:
+                    if index > size:
+                        raise GainError(f"{self.name}: {key}: {spec.name} has {size} entries")
+                    arr[index - 1] = value
+            arrays[spec.name] = arr
+        self.gain_arrays = arrays
+        for spec in self.gain_specs:      # scalars as floats, the others as arrays
+            arr = arrays[spec.name]
+            setattr(self, spec.name, float(arr[0]) if spec.size == "one" else arr)
+
+    # -------------------------------------------------------------- life cycle
+    def setup(self, s: ControlSetup) -> None:
+        """Bind to a robot and a model; decide the reference coordinates; resolve the gains."""
+        self.s = s
+        self.robot = s.robot
+        self.model = s.model
+        self.n = s.robot.n
+        self.dt = s.period
+        if self.needs_full_actuation and not np.all(s.actuated):
+            passive = [c for c, a in zip(s.robot.coordinates, s.actuated) if not a]
+            raise GainError(f"{self.name} needs every coordinate actuated; {', '.join(passive)} "
+                            f"{'is' if len(passive) == 1 else 'are'} passive (try pfl_collocated)")
+        self.reference_names, self.reference_start = self.reference_coordinates(s)
+        self.prepare(s)
+        self._resolve_gains()
+
+    def reference_coordinates(self, s: ControlSetup) -> Tuple[List[str], np.ndarray]:
+        """Names and initial values of the coordinates the reference is given in (default: q)."""
+        self.ref_index = np.arange(self.n)
+        return list(s.robot.coordinates), s.q0.copy()
+
+    def prepare(self, s: ControlSetup) -> None:
+        """Gain-independent preparation (compiled functions, checks)."""
+
+    def begin(self, reference) -> None:
+        """Called once with the reference (a trajectories.Reference) before the first step."""
+        self.reference = reference
+
+    def step(self, k: int, t: float, q, dq, qd, dqd, ddqd) -> np.ndarray:
+        raise NotImplementedError
+
+    def internals(self) -> np.ndarray:
+        """Current values of ``internal_names`` (after a step)."""
+        return np.zeros(0)
+
+    def measure(self, Q: np.ndarray, DQ: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+        """The referenced quantity and its rate over recorded samples (default: joint values)."""
+        return Q[:, self.ref_index].copy(), DQ[:, self.ref_index].copy()
+
+    def describe_gains(self) -> str:
+        return "\n".join(f"  {g.name:7s} {g.doc} [{g.unit or '-'}], default {g.default:g}"
+                         + (" M_ii(q0)" if g.per_inertia else "") for g in self.gain_specs)
+
+
+CONTROLLERS: Dict[str, type] = {}
+
+
+def register(cls):
+    CONTROLLERS[cls.name] = cls
+    return cls
+
+
+def make_controller(name: str, gains: Optional[Mapping[str, float]] = None) -> Controller:
+    """A controller by name, with gains.
+
+    >>> make_controller("pid")
+    Traceback (most recent call last):
+    ...
+    app.core.control.GainError: unknown controller 'pid' (adaptive, admittance, computed_torque, elastic_pd, hybrid, impedance, learning, pd, pd_gravity, pd_gravity_const, pfl_collocated, pfl_noncollocated, robust)
+    """
+    cls = CONTROLLERS.get(name)
+    if cls is None:
+        raise GainError(f"unknown controller '{name}' ({', '.join(sorted(CONTROLLERS))})")
+    return cls(gains)
+
+
+def parse_gains(text: Optional[str]) -> Dict[str, float]:
+    """``"Kp=100,Kd=20,Kp2=50"`` -> {'Kp': 100.0, 'Kd': 20.0, 'Kp2': 50.0}; values may use pi.
+
+    >>> parse_gains("Kp=100, Kd=2*10")
+    {'Kp': 100.0, 'Kd': 20.0}
+    """
+    out: Dict[str, float] = {}
+    for item in (text or "").split(","):
+        item = item.strip()
+        if not item:
+            continue
+        if "=" not in item:
+            raise GainError(f"gains: expected name=value, got '{item}'")
+        key, raw = (x.strip() for x in item.split("=", 1))
+        if not key.replace("_", "").isalnum():
+            raise GainError(f"gains: '{key}' is not a gain name")
+        try:
+            out[key] = float(parse_expression(raw, allowed_names=()))
+        except (ExpressionError, TypeError) as exc:
+            raise GainError(f"gains: {key}={raw}: {exc}") from None
+    return out
+
+
+_KP = Gain("Kp", 100.0, "proportional gain K_P (diagonal)", "1/s^2 or N m/rad")
+_KD = Gain("Kd", 20.0, "derivative gain K_D (diagonal)", "1/s or N m s/rad")
+
+
+# ====================================================================== joint-space regulation and tracking
+@register
+class PD(Controller):
+    name = "pd"
+    title = "PD without gravity compensation"
+    law_latex = r"\tau = K_P e + K_D \dot e,\quad e = q_d - q"
+    closed_loop = ("Regulation to a set point leaves a steady-state error: at rest K_P e_ss = g(q_ss) "
+                   "(the equilibrium where the PD spring balances gravity).")
+    gain_specs = (Gain("Kp", 100.0, "proportional gain K_P (diagonal)", "N m/rad", per_inertia=True),
+                  Gain("Kd", 20.0, "derivative gain K_D (diagonal)", "N m s/rad", per_inertia=True))
+
+    def step(self, k, t, q, dq, qd, dqd, ddqd):
+        return self.Kp * (qd - q) + self.Kd * (dqd - dq)
+
+
+@register
+class PDGravity(PD):
+    name = "pd_gravity"
+    title = "PD + on-line gravity compensation g(q)"
+    law_latex = r"\tau = K_P e + K_D \dot e + g(q),\quad e = q_d - q"
+    closed_loop = ("Global asymptotic stability of a set point for any K_P, K_D > 0 "
+                   "(Lyapunov V = 1/2 q'^T M q' + 1/2 e^T K_P e, LaSalle).")
+
+    def step(self, k, t, q, dq, qd, dqd, ddqd):
+        return self.Kp * (qd - q) + self.Kd * (dqd - dq) + self.model.gravity(q)
+
+
+@register
+class PDGravityConstant(PD):
+    name = "pd_gravity_const"
+    title = "PD + constant gravity compensation g(q_d)"
+    law_latex = r"\tau = K_P e + K_D \dot e + g(q_d),\quad e = q_d - q"
+    closed_loop = ("Global asymptotic stability of a set point when K_P,min > alpha, with alpha a bound "
+                   "of the norm of dg/dq.")
+
+    def step(self, k, t, q, dq, qd, dqd, ddqd):
+        return self.Kp * (qd - q) + self.Kd * (dqd - dq) + self.model.gravity(qd)
+
+
+@register
+class ComputedTorque(Controller):
+    name = "computed_torque"
+    title = "Computed torque (feedback linearization)"
+    law_latex = r"\tau = M(q)\left(\ddot q_d + K_D \dot e + K_P e\right) + c(q,\dot q) + g(q)"
+    closed_loop = ("With an exact model: e'' + K_D e' + K_P e = 0, decoupled and exponentially stable; "
+                   "K_P = w^2, K_D = 2 zeta w.")
+    gain_specs = (_KP, _KD)
+    needs_full_actuation = True
+
+    def prepare(self, s):
+        self._id = s.model.inverse_dynamics
+
+    def step(self, k, t, q, dq, qd, dqd, ddqd):
+        return self._id(q, dq, ddqd + self.Kd * (dqd - dq) + self.Kp * (qd - q))
+
+
+@register
+class Robust(Controller):
+    name = "robust"
+    title = "Computed torque + robust (sliding-mode-style) correction"
+    law_latex = (r"\tau = \hat M(q)\left(\ddot q_d + K_D \dot e + K_P e + w\right) + \hat c + \hat g,\quad "
+                 r"w = \rho\,\frac{z}{\max(\|z\|, \varepsilon)},\quad z = \dot e + \Lambda e")
+    closed_loop = ("e'' + K_D e' + K_P e = eta - w with eta the model error: w pushes along z with "
+                   "magnitude rho >= |eta| (inside the boundary layer |z| < epsilon it is linear, "
+                   "avoiding chattering), so the error reaches and stays near the surface z = 0.")
+    gain_specs = (_KP, _KD,
+                  Gain("Lambda", 5.0, "slope of the sliding surface z = e' + Lambda e", "1/s"),
+                  Gain("rho", 20.0, "magnitude of the robust correction w", "rad/s^2", "one"),
+                  Gain("eps", 0.05, "boundary layer width on |z|", "rad/s", "one"))
+    needs_full_actuation = True
+
+    def prepare(self, s):
+        self._id = s.model.inverse_dynamics
+        self.internal_names = ["|z|"]
+        self._nz = 0.0
+
+    def step(self, k, t, q, dq, qd, dqd, ddqd):
+        e, de = qd - q, dqd - dq
+        z = de + self.Lambda * e
+        nz = float(np.sqrt(z @ z))
+        self._nz = nz
+        w = self.rho * z / max(nz, self.eps)
+        return self._id(q, dq, ddqd + self.Kd * de + self.Kp * e + w)
+
+    def internals(self):
+        return np.array([self._nz])
+
+
+@register
+class Adaptive(Controller):
+    name = "adaptive"
+    title = "Adaptive control (Slotine-Li)"
+    law_latex = (r"\tau = Y(q,\dot q,\dot q_r,\ddot q_r)\,\hat a + K_D(\dot q_r - \dot q),\quad "
+                 r"\dot{\hat a} = \Gamma\, Y^T(q,\dot q,\dot q_r,\ddot q_r)\,(\dot q_r - \dot q),\quad "
+                 r"\dot q_r = \dot q_d + \Lambda e,\ \ddot q_r = \ddot q_d + \Lambda \dot e")
+    closed_loop = ("V = 1/2 s^T M(q) s + 1/2 a~^T Gamma^-1 a~ with s = q'_r - q' has V' = -s^T K_D s <= 0: "
+                   "e -> 0 and the estimates stay bounded (they converge to the true a only with "
+                   "persistent excitation).")
+    gain_specs = (Gain("Kd", 20.0, "gain K_D on s = dq_r - dq (diagonal)", "N m s/rad"),
+                  Gain("Lambda", 5.0, "Lambda in dq_r = dq_d + Lambda e (diagonal)", "1/s"),
+                  Gain("Gamma", 1.0, "adaptation gain Gamma (diagonal, one per coefficient)", "", "param"))
+    needs_full_actuation = True
+
+    def _gain_size(self, spec):
+        return self.count if spec.size == "param" else super()._gain_size(spec)
+
+    def prepare(self, s):
+        from .dynamics import derive
+        robot = s.robot
+        par = derive(robot).parametrization
+        dqr, ddqr = robot.reference_symbols()
+        p = robot.parameter_symbols
+        self.count = par.count
+        self.coefficients_latex = [sp.latex(a) for a in par.a]
+        self.coefficient_names = [str(a) for a in par.a]
+        self._Y = sp.lambdify([robot.q, robot.dq, dqr, ddqr, p], par.Y_ref, "numpy", cse=True)
+        self._a = sp.lambdify([p], sp.Matrix(par.a), "numpy", cse=True)
+        self._p = np.array([s.model.values[name] for name in robot.parameters], dtype=float)
+        self.internal_names = [f"a_hat{i + 1}" for i in range(self.count)]
+
+    def coefficients(self, values: Mapping[str, float]) -> np.ndarray:
+        """The true coefficient vector a at given parameter values (e.g. the plant's)."""
+        p = np.array([values[name] for name in self.robot.parameters], dtype=float)
+        return np.asarray(self._a(p), dtype=float).reshape(self.count)
+
+    def regressor(self, q, dq, dqr, ddqr) -> np.ndarray:
+        return np.asarray(self._Y(q, dq, dqr, ddqr, self._p), dtype=float).reshape(self.n, self.count)
+
+    def begin(self, reference):
+        super().begin(reference)
+        self.a_hat = self.coefficients(self.model.values)      # initial estimate: the controller's model
+        self._used = self.a_hat.copy()
+
+    def step(self, k, t, q, dq, qd, dqd, ddqd):
+        e, de = qd - q, dqd - dq
+        dqr = dqd + self.Lambda * e
+        ddqr = ddqd + self.Lambda * de
+        sv = dqr - dq
+        Y = self.regressor(q, dq, dqr, ddqr)
+        self._used = self.a_hat
+        tau = Y @ self.a_hat + self.Kd * sv
+        self.a_hat = self.a_hat + self.dt * self.Gamma * (Y.T @ sv)
+        return tau
+
+    def internals(self):
+        return self._used
+
+
+@register
+class Learning(Controller):
+    name = "learning"
+    title = "Iterative learning for regulation (gravity feedforward learned over iterations)"
+    law_latex = (r"\tau = K_P e - K_D \dot q + u_{i-1},\quad u_i = u_{i-1} + K_P e_i"
+                 r"\quad (\text{at the end of each iteration of length } T)")
+    closed_loop = ("At the end of iteration i the robot rests where g(q_i) = K_P e_i + u_{i-1}, so u_i = g(q_i); "
+                   "with K_P,min > 2 alpha (alpha bounds |dg/dq|) the errors contract, |e_i| <= beta/(1-beta) |e_(i-1)|, "
+                   "and q_i -> q_d without knowing g.")
+    gain_specs = (Gain("Kp", 100.0, "proportional gain K_P (diagonal)", "N m/rad", per_inertia=True),
+                  Gain("Kd", 20.0, "derivative gain K_D (diagonal)", "N m s/rad", per_inertia=True),
+                  Gain("T", 5.0, "iteration length: the feedforward is updated every T seconds", "s", "one"))
+
+    def prepare(self, s):
+        self.internal_names = [f"u_{c}" for c in self.reference_names] + ["iteration"]
+
+    def begin(self, reference):
+        from .trajectories import SetPoint
+        if not isinstance(reference, SetPoint):
+            raise GainError("learning is a regulation scheme: give a setpoint reference")
+        super().begin(reference)
+        self.u = np.zeros(self.n)
+        self.iteration = 0
+        self._next = self.T
+
+    def step(self, k, t, q, dq, qd, dqd, ddqd):
+        if t >= self._next - 1e-9:
+            self.u = self.u + self.Kp * (qd - q)
+            self.iteration += 1
+            self._next += self.T
+        return self.Kp * (qd - q) - self.Kd * dq + self.u
+
+    def internals(self):
+        return np.append(self.u, self.iteration)
+
+
+# ====================================================================== underactuated and elastic robots
+class _PFL(Controller):
+    collocated = True
+    gain_specs = (_KP, _KD)
+
+    def reference_coordinates(self, s):
+        act = np.flatnonzero(s.actuated)
+        pas = np.flatnonzero(~s.actuated)
+        if pas.size == 0:
+            raise GainError(f"{self.name} is for robots with a passive joint; mark one passive (e.g. --passive "
+                            f"{s.robot.coordinates[-1]})")
+        if act.size == 0:
+            raise GainError(f"{self.name}: no joint is actuated")
+        if not self.collocated and act.size < pas.size:
+            raise GainError(f"{self.name}: {pas.size} passive coordinates cannot be linearized with {act.size} inputs")
+        self.A, self.P = act, pas
+        self.ref_index = act if self.collocated else pas
+        return [s.robot.coordinates[i] for i in self.ref_index], s.q0[self.ref_index].copy()
+
+    def prepare(self, s):
+        self.internal_names = [f"a_{c}" for c in self.reference_names]
+        self._y = np.zeros(len(self.ref_index))
+
+    def step(self, k, t, q, dq, qd, dqd, ddqd):
+        A, P = self.A, self.P
+        x, dx = q[self.ref_index], dq[self.ref_index]
+        y = ddqd + self.Kd * (dqd - dx) + self.Kp * (qd - x)
+        self._y = y
+        M = self.model.M(q)
+        h = self.model.bias(q, dq)
+        MAA, MAP, MPA, MPP = M[np.ix_(A, A)], M[np.ix_(A, P)], M[np.ix_(P, A)], M[np.ix_(P, P)]
+        if self.collocated:
+            ddqP = -np.linalg.solve(MPP, MPA @ y + h[P])
+            u = MAA @ y + MAP @ ddqP + h[A]
+        else:
+            sv = np.linalg.svd(MPA, compute_uv=False)
+            if sv.min() < 1e-9 * max(1.0, sv.max()):
+                raise ControlStop("non-collocated PFL lost its inertial coupling (M_PA is singular)")
+            ddqA = np.linalg.lstsq(MPA, -(MPP @ y + h[P]), rcond=None)[0]
+            u = MAA @ ddqA + MAP @ y + h[A]
+        tau = np.zeros(self.n)
+        tau[A] = u
+        return tau
+
+    def internals(self):
+        return self._y
+
+
+@register
+class PFLCollocated(_PFL):
+    name = "pfl_collocated"
+    title = "Partial feedback linearization, collocated (actuated joints)"
+    law_latex = (r"u_a = \left(M_{aa} - M_{ap} M_{pp}^{-1} M_{pa}\right) a + n_a - M_{ap} M_{pp}^{-1} n_p,\quad "
+                 r"a = \ddot q_{a,d} + K_D \dot e_a + K_P e_a")
+    closed_loop = ("q''_a = a exactly (the actuated coordinates follow a linear system); the passive ones obey "
+                   "the zero dynamics M_pp q''_p + M_pa a + n_p = 0.")
+    collocated = True
+
+
+@register
+class PFLNonCollocated(_PFL):
+    name = "pfl_noncollocated"
+    title = "Partial feedback linearization, non-collocated (passive joints)"
+    law_latex = (r"u_a = M_{aa} \ddot q_a + M_{ap} a + n_a,\quad \ddot q_a = -M_{pa}^{-1}\left(M_{pp} a + n_p\right),\quad "
+                 r"a = \ddot q_{p,d} + K_D \dot e_p + K_P e_p")
+    closed_loop = ("q''_p = a exactly, as long as M_pa (the inertial coupling) is invertible; the actuated "
+                   "coordinates are then left to their own (zero) dynamics.")
+    collocated = False
+
+
+@register
+class ElasticPD(Controller):
+    name = "elastic_pd"
+    title = "Elastic joints: motor PD + link gravity compensation"
+    law_latex = (r"\tau = K_P(\theta_d - \theta) - K_D \dot\theta + g(q_d),\quad "
+                 r"\theta_d = q_d + K^{-1} g(q_d)")
+    closed_loop = ("The link set point q_d and the motor set point theta_d (where the springs balance gravity) "
+                   "are globally asymptotically stable when the joint stiffness and K_P are large enough "
+                   "compared with the gravity gradient (K_min > alpha, K_P,min > alpha).")
+    gain_specs = (Gain("Kp", 200.0, "motor proportional gain K_P (diagonal)", "N m/rad"),
+                  Gain("Kd", 30.0, "motor derivative gain K_D (diagonal)", "N m s/rad"))
+
+    def reference_coordinates(self, s):
+        robot = s.robot
+        motors = [c for c in robot.coordinates if c in robot.motor_inertias]
+        if not motors:
+            raise GainError(f"{self.name} needs a robot with elastic joints (motor coordinates under 'motors:'); "
+                            f"{robot.name} has none")
+        self.motor_index = np.array([robot.coordinates.index(c) for c in motors])
+        self.link_index = np.array([i for i, c in enumerate(robot.coordinates) if c not in motors])
+        if self.link_index.size != self.motor_index.size:
+            raise GainError(f"{self.name}: {self.link_index.size} link and {self.motor_index.size} motor coordinates; "
+                            "one motor per link is needed")
+        self.ref_index = self.link_index
+        return [robot.coordinates[i] for i in self.link_index], s.q0[self.link_index].copy()
+
+    def _gain_size(self, spec):
+        return self.motor_index.size
+
+    def begin(self, reference):
+        from scipy.optimize import fsolve
+        from .trajectories import SetPoint
+        if not isinstance(reference, SetPoint):
+            raise GainError("elastic_pd regulates to a set point: give a setpoint reference")
+        super().begin(reference)
+        x = self.s.q0.copy()
+        x[self.link_index] = reference.goal
+        L, Mo = self.link_index, self.motor_index
+
+        def residual(theta):
+            y = x.copy()
+            y[Mo] = theta
+            return self.model.gravity(y)[L]
+
+        theta = fsolve(residual, x[L].copy(), xtol=1e-12)
+        if np.max(np.abs(residual(theta))) > 1e-8:
+            raise GainError(f"{self.name}: no motor positions balance gravity at q_d = {reference.goal.tolist()}")
+        x[Mo] = theta
+        self.theta_d = theta
+        self.tau_ff = self.model.gravity(x)[Mo]
+        self.internal_names = [f"theta_d_{self.robot.coordinates[i]}" for i in Mo]
+
+    def step(self, k, t, q, dq, qd, dqd, ddqd):
+        tau = np.zeros(self.n)
+        Mo = self.motor_index
+        tau[Mo] = self.Kp * (self.theta_d - q[Mo]) - self.Kd * dq[Mo] + self.tau_ff
+        return tau
+
+    def internals(self):
+        return self.theta_d
+
+
+# ====================================================================== Cartesian control and contact
+class _Cartesian(Controller):
+    """Controllers of a point's position p(q) in task coordinates (x, y for planar robots)."""
+    needs_full_actuation = True
+
+    def reference_coordinates(self, s):
+        robot = s.robot
+        name = s.task_point
+        if name is None:
+            name = "ee" if "ee" in robot.points else next(iter(robot.points), None)
+        if name is None:
+            raise GainError(f"{self.name} needs a point on the robot (the file of {robot.name} has no points)")
+        self.point = s.make_point(name)
+        if self.point.dim != self.n:
+            raise GainError(f"{self.name} needs as many joints as task coordinates: {robot.name} has {self.n} "
+                            f"joints and the point moves in {self.point.dim} dimensions")
+        return list(self.point.axes), self.point.position(s.q0)
+
+    def force(self) -> np.ndarray:
+        F = self.s.read_force(self.point.name)
+        return np.zeros(self.point.dim) if F is None else F
+
+    def measure(self, Q, DQ):
+        X = np.array([self.point.position(q) for q in Q])
+        DX = np.array([self.point.jacobian(q) @ dq for q, dq in zip(Q, DQ)])
+        return self._to_task(X, DX)
+
+    def _to_task(self, X, DX):
+        return X, DX
+
+
+@register
+class Impedance(_Cartesian):
+    name = "impedance"
+    title = "Impedance control (Cartesian, with force measurement)"
+    law_latex = (r"\tau = M(q) J^{-1}(q)\left(\ddot p_d + M_m^{-1}\left(D_m \dot e + K_m e + F\right) - \dot J(q)\dot q\right)"
+                 r" + c(q,\dot q) + g(q) - J^T(q) F,\quad e = p_d - p")
+    closed_loop = ("M_m (p'' - p''_d) + D_m (p' - p'_d) + K_m (p - p_d) = F: the point behaves as a mass-spring-damper "
+                   "under the external force F (on the robot); at rest against a surface K_m (p - p_d) = F.")
+    gain_specs = (Gain("Mm", 2.0, "apparent mass M_m (diagonal)", "kg"),
+                  Gain("Dm", 60.0, "apparent damping D_m (diagonal)", "N s/m"),
+                  Gain("Km", 400.0, "apparent stiffness K_m (diagonal)", "N/m"))
+
+    def prepare(self, s):
+        self.internal_names = [f"F_{a}" for a in self.point.axes]
+        self._F = np.zeros(self.point.dim)
+
+    def step(self, k, t, q, dq, pd, dpd, ddpd):
+        P = self.point
+        J = P.jacobian(q)
+        p, dp = P.position(q), J @ dq
+        F = self.force()
+        self._F = F
+        a = ddpd + (self.Dm * (dpd - dp) + self.Km * (pd - p) + F) / self.Mm
+        return self.model.inverse_dynamics(q, dq, np.linalg.solve(J, a - P.jdot_dq(q, dq))) - J.T @ F
+
+    def internals(self):
+        return self._F
+
+
+@register
+class Admittance(_Cartesian):
+    name = "admittance"
+    title = "Admittance control (compliant reference + Cartesian motion control)"
+    law_latex = (r"M_m \ddot p_r + D_m(\dot p_r - \dot p_d) + K_m (p_r - p_d) = F + M_m \ddot p_d,\quad "
+                 r"\tau = M(q) J^{-1}(q)\left(\ddot p_r + K_D(\dot p_r - \dot p) + K_P(p_r - p) - \dot J(q)\dot q\right)"
+                 r" + c(q,\dot q) + g(q)")
+    closed_loop = ("The measured force F bends the reference p_r through the admittance; a stiff inner motion loop "
+                   "makes p follow p_r, so p - p_d obeys the desired mass-spring-damper (up to the inner error).")
+    gain_specs = (Gain("Mm", 2.0, "admittance mass M_m (diagonal)", "kg"),
+                  Gain("Dm", 60.0, "admittance damping D_m (diagonal)", "N s/m"),
+                  Gain("Km", 400.0, "admittance stiffness K_m (diagonal)", "N/m"),
+                  Gain("Kp", 2500.0, "inner position gain K_P (diagonal)", "1/s^2"),
+                  Gain("Kd", 100.0, "inner velocity gain K_D (diagonal)", "1/s"))
+
+    def prepare(self, s):
+        axes = self.point.axes
+        self.internal_names = [f"p_r_{a}" for a in axes] + [f"F_{a}" for a in axes]
+        self.pr = self.point.position(s.q0)
+        self.dpr = self.point.jacobian(s.q0) @ s.dq0
+        self._out = np.concatenate([self.pr, np.zeros(self.point.dim)])
+
+    def step(self, k, t, q, dq, pd, dpd, ddpd):
+        P = self.point
+        J = P.jacobian(q)
+        p, dp = P.position(q), J @ dq
+        F = self.force()
+        ddpr = ddpd + (F - self.Dm * (self.dpr - dpd) - self.Km * (self.pr - pd)) / self.Mm
+        self._out = np.concatenate([self.pr, F])
+        a = ddpr + self.Kd * (self.dpr - dp) + self.Kp * (self.pr - p)
+        tau = self.model.inverse_dynamics(q, dq, np.linalg.solve(J, a - P.jdot_dq(q, dq)))
+        self.dpr = self.dpr + self.dt * ddpr            # semi-implicit Euler of the admittance
+        self.pr = self.pr + self.dt * self.dpr
+        return tau
+
+    def internals(self):
+        return self._out
+
+
+@register
+class Hybrid(_Cartesian):
+    name = "hybrid"
+    title = "Hybrid force/velocity control against a rigid surface"
+    law_latex = (r"\tau = M(q) J^{-1}(q)\left(t\, a_t - \dot J(q)\dot q\right) + c(q,\dot q) + g(q) - J^T(q)\, n\, f_c,\quad "
+                 r"a_t = \ddot s_d + K_D(\dot s_d - \dot s) + K_P(s_d - s),\quad "
+                 r"f_c = f_d + K_F \int (f_d - \lambda)\,dt")
+    closed_loop = ("On the surface (n^T p = const) the constraint force equals f_c, so lambda = f_d, and the motion "
+                   "along the tangent t obeys e_s'' + K_D e_s' + K_P e_s = 0: force and motion are decoupled. "
+                   "The integral action removes force errors caused by model mismatch.")
+    gain_specs = (_KP, _KD,
+                  Gain("Fd", 10.0, "desired normal force f_d pushed on the surface", "N", "one"),
+                  Gain("KF", 10.0, "integral gain of the force loop", "1/s", "one", positive=False))
+
+    def reference_coordinates(self, s):
+        rigid = [x for x in s.surfaces if x[1] == "rigid"]
+        if not rigid:
+            raise GainError("hybrid control needs a rigid surface (e.g. --surface 'ee normal=0,1')")
+        names, _ = super().reference_coordinates(s)
+        surf = next((x for x in rigid if x[0] == self.point.name), None)
+        if surf is None:
+            raise GainError(f"hybrid: the rigid surface touches {rigid[0][0]}, the task point is {self.point.name}")
+        self.normal = np.asarray(surf[2], dtype=float)
+        # tangent basis: complete n to an orthonormal frame
+        dim = self.point.dim
+        if dim == 2:
+            T = np.array([[-self.normal[1]], [self.normal[0]]])
+        else:
+            U, _, _ = np.linalg.svd(self.normal.reshape(3, 1))
+            T = U[:, 1:]
+        self.T = T
+        self.ref_names = ["s"] if dim == 2 else ["s1", "s2"]
+        return self.ref_names, T.T @ self.point.position(s.q0)
+
+    def prepare(self, s):
+        self.internal_names = ["lambda", "f_c"]
+        self._I = 0.0
+        self._out = np.zeros(2)
+
+    def step(self, k, t, q, dq, sd, dsd, ddsd):
+        P = self.point
+        J = P.jacobian(q)
+        p, dp = P.position(q), J @ dq
+        s_, ds_ = self.T.T @ p, self.T.T @ dp
+        lam = float(self.normal @ self.force())
+        fc = self.Fd + self.KF * self._I
+        self._I += self.dt * (self.Fd - lam)
+        self._out = np.array([lam, fc])
+        a_t = ddsd + self.Kd * (dsd - ds_) + self.Kp * (sd - s_)
+        acc = np.linalg.solve(J, self.T @ a_t - P.jdot_dq(q, dq))
+        return self.model.inverse_dynamics(q, dq, acc) - J.T @ (self.normal * fc)
+
+    def internals(self):
+        return self._out
+
+    def _to_task(self, X, DX):
+        return X @ self.T, DX @ self.T
+
+
+# ====================================================================== collision detection
+class MomentumObserver:
+    """Momentum-based collision detection residual, running beside any controller:
+
+        r = K_I ( p(t) - p(0) - int_0^t (tau + C^T(q, q') q' - g(q) + r) ds ),   p = M(q) q'
+
+    so that r' = K_I (tau_ext - r): a first-order filtered estimate of the external joint torque
+    (J^T F for a force F on a point). Discretized with the trapezoidal rule (the applied torque is
+    held constant over each period, so its integral is exact).
+    """
+    law_latex = (r"r = K_I\left(M(q)\dot q - \int_0^t \left(\tau + C^T(q,\dot q)\dot q - g(q) + r\right)ds"
+                 r" - M(q_0)\dot q_0\right),\quad \dot r = K_I(\tau_{ext} - r)")
+
+    def __init__(self, gain):
+        self.gain = gain
+
+    def setup(self, s: ControlSetup) -> None:
+        n = s.robot.n
+        K = np.atleast_1d(np.asarray(self.gain, dtype=float)).reshape(-1)
+        if K.size == 1:
+            K = np.full(n, K[0])
+        if K.size != n or not np.all(np.isfinite(K)) or np.any(K <= 0):
+            raise GainError(f"observer: K_I needs one positive value or {n} (one per coordinate)")
+        self.K = K
+        self.model = s.model
+        self.dt = s.period
+        self.internal_names = [f"r_{c}" for c in s.robot.coordinates]
+        self.r = np.zeros(n)
+        self._started = False
+
+    def _beta(self, q, dq):
+        m = self.model
+        return m.gravity(q) + m.friction(dq) - m.coriolis_matrix(q, dq).T @ dq
+
+    def update(self, q, dq, tau) -> np.ndarray:
+        """Advance to the current sample (q, q') where ``tau`` will be applied; returns r."""
+        p = self.model.M(q) @ dq
+        beta = self._beta(q, dq)
+        if not self._started:
+            self._started = True
+            self.p0, self.I = p, np.zeros_like(p)
+        else:
+            dt = self.dt
+            I1 = self.I + dt * self._tau - dt / 2 * (self._beta_prev + beta) + dt / 2 * self.r
+            self.r = self.K * (p - self.p0 - I1) / (1 + self.K * dt / 2)
+            self.I = I1 + dt / 2 * self.r
+        self._tau, self._beta_prev = np.array(tau, dtype=float), beta
+        return self.r

@@ -1,0 +1,834 @@
+"""Closed-loop simulation: a robot (the "real plant"), a controller sampled at a fixed rate with a
+zero-order hold, and a fixed-step Runge-Kutta 4 integrator.
+
+The plant is the robot's dynamics M(q) q'' + c + g + k(q) + friction = tau + tau_ext at the plant's
+parameter values (which may differ from the controller's model: model mismatch), plus optional
+extra viscous friction, actuator saturation, passive joints (zero torque), forces on points
+(tau_ext = J^T F), compliant surfaces and rigid surfaces (a bilateral constraint whose force is
+solved exactly). Forward dynamics come from pinocchio's ABA when the robot's joint variables are
+its coordinates, else from the lambdified symbolic model (``ModelTerms``).
+
+>>> res = simulate("planar_2r", "computed_torque", reference="setpoint goal=0.2,0.1",
+...                q0=[0.0, 0.0], duration=1.0)
+>>> res.completed, bool(abs(res.e[-1]).max() < 1e-3)
+(True, True)
+
+A run that leaves the joint limits or blows up stops with a message, keeping the samples up to
+that time (here a PD far too soft to hold the throwing arm up):
+
+>>> res = simulate("throwing_arm", "pd", gains={"Kp": 1, "Kd": 1}, duration=3.0)
+>>> res.message, float(res.t[-1])
+('q1 left its limits [-0.5236, 3.665] at t = 0.606 s', 0.605)
+"""
+from __future__ import annotations
+
+import csv
+import io
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import sympy as sp
+
+from .control import ControlSetup, ControlStop, Controller, MomentumObserver, make_controller
+from .dynamics import derive
+from .errors import UserError
+from .kinematics import Kinematics
+from .numeric import NumericModel, PinocchioTwin
+from .robot import RobotModel, load_robot
+from .trajectories import Reference, parse_reference
+
+Progress = Optional[Callable[[float, str], Optional[bool]]]
+
+
+class SimulationError(UserError):
+    """A simulation cannot be set up as asked (bad initial state, missing surface, ...)."""
+
+
+# ====================================================================== fast model terms
+class ModelTerms:
+    """Numeric dynamics at fixed parameter values, fast enough for a 1 kHz loop.
+
+    With ``backend="pinocchio"`` (the default when the robot's joint variables are its coordinates,
+    in order) M, the bias forces, inverse and forward dynamics come from pinocchio (crba,
+    nonLinearEffects, rnea, aba); spring and friction terms of the robot file (and an optional
+    extra viscous friction) are added, as linear maps when they are linear. Otherwise everything
+    comes from the lambdified symbolic model (``NumericModel``).
+
+    >>> from app.core.robot import load_robot
+    >>> fast = ModelTerms(load_robot("planar_2r"))
+    >>> slow = ModelTerms(load_robot("planar_2r"), backend="symbolic")
+    >>> q, dq, tau = np.array([0.3, -0.2]), np.array([1.0, 0.5]), np.array([2.0, -1.0])
+    >>> fast.backend, bool(np.allclose(fast.forward_dynamics(q, dq, tau), slow.forward_dynamics(q, dq, tau)))
+    ('pinocchio', True)
+    """
+
+    def __init__(self, robot: RobotModel, params: Optional[Mapping[str, float]] = None,
+                 backend: str = "auto", extra_viscous: Optional[Sequence[float]] = None):
+        if backend not in ("auto", "pinocchio", "symbolic"):
+            raise SimulationError(f"unknown backend '{backend}' (auto, pinocchio or symbolic)")
+        self.robot = robot
+        self.num = NumericModel(robot, params)
+        self.values = self.num.values
+        self.n = n = robot.n
+        dyn = self.num.dyn
+        q, dq = robot.q, robot.dq
+        self.extra_viscous = None if extra_viscous is None else np.asarray(extra_viscous, dtype=float).reshape(n)
+        # spring and friction terms as (matrix, constant) when linear, else callables
+        subs = {sp.Symbol(k, real=True): v for k, v in self.values.items()}
+        self._spring_lin = _linear_map(dyn.spring, q, subs)
+        if robot.coulomb:
+            self._friction_lin = None
+        else:
+            self._friction_lin = _linear_map(dyn.friction, dq, subs)
+        Fv = np.zeros((n, n)) if self._friction_lin is None else self._friction_lin[0]
+        if self.extra_viscous is not None:
+            Fv = Fv + np.diag(self.extra_viscous)
+        self._Fv = Fv if np.any(Fv) else None
+        self._K = None if self._spring_lin is None or not np.any(self._spring_lin[0]) else self._spring_lin[0]
+        self._k0 = None if self._spring_lin is None or not np.any(self._spring_lin[1]) else self._spring_lin[1]
+        self._spring_fn = None if self._spring_lin is not None or not robot.springs else self.num.spring
+        self._coulomb_fn = self.num.friction if robot.coulomb else None
+        self.has_extra = any(x is not None for x in (self._Fv, self._K, self._k0, self._spring_fn, self._coulomb_fn))
+
+        joint_values = [b.joint.value for b in robot.bodies if b.joint.type != "fixed"]
+        joint_values += [sp.Symbol(c, real=True) for c in robot.motor_inertias]
+        identity = len(joint_values) == n and all(v == s for v, s in zip(joint_values, q))
+        if backend == "pinocchio" and not identity:
+            raise SimulationError(f"{robot.name}: the pinocchio backend needs joint variables equal to the "
+                                  "coordinates (in order); use the symbolic backend")
+        self.backend = "pinocchio" if (backend != "symbolic" and identity) else "symbolic"
+        if self.backend == "pinocchio":
+            import pinocchio as pin
+            twin = PinocchioTwin(robot, self.values)
+            self._pin, self._model, self._data = pin, twin.model, twin.data
+        self._bind()
+
+    # -------------------------------------------------------------- extras: springs and friction
+    def extra(self, q, dq) -> np.ndarray:
+        """Spring and friction forces k(q) + F_v q' (+ Coulomb) of the robot file and the extra
+        viscous friction: the terms pinocchio does not model."""
+        out = np.zeros(self.n)
+        if self._K is not None:
+            out = out + self._K @ q
+        if self._k0 is not None:
+            out = out + self._k0
+        if self._spring_fn is not None:
+            out = out + self._spring_fn(q)
+        if self._Fv is not None:
+            out = out + self._Fv @ dq
+        if self._coulomb_fn is not None:
+            out = out + self._coulomb_fn(dq)
+            if self.extra_viscous is not None and self._Fv is None:
+                out = out + self.extra_viscous * dq
+        return out
+
+    def _bind(self):
+        """Pick the fastest closures for the hot-path functions."""
+        n = self.n
+        if self.backend == "symbolic":
+            num = self.num
+            ev = self.extra_viscous
+
+            def bias(q, dq):
+                b = num.bias(q, dq)
+                return b if ev is None else b + ev * dq
+            self.M = num.M
+            self.bias = bias
+            self.inverse_dynamics = lambda q, dq, a: num.M(q) @ a + bias(q, dq)
+            self.forward_dynamics = lambda q, dq, tau: np.linalg.solve(num.M(q), tau - bias(q, dq))
+            return
+        pin, model, data = self._pin, self._model, self._data
+        aba, rnea, crba, nle = pin.aba, pin.rnea, pin.crba, pin.nonLinearEffects
+        self.M = lambda q: crba(model, data, q)
+        if not self.has_extra:
+            self.bias = lambda q, dq: nle(model, data, q, dq)
+            self.inverse_dynamics = lambda q, dq, a: rnea(model, data, q, dq, a)
+            self.forward_dynamics = lambda q, dq, tau: aba(model, data, q, dq, tau)
+            return
+        K, k0, Fv = self._K, self._k0, self._Fv
+        if self._spring_fn is None and self._coulomb_fn is None and k0 is None:
+            # linear extras K q + Fv dq; diagonal matrices (the usual case) as elementwise products
+            Kd = _diagonal(K)
+            Fd = _diagonal(Fv)
+            if Fv is None:
+                extra = (lambda q, dq: Kd * q) if Kd is not None else (lambda q, dq: K @ q)
+            elif K is None:
+                extra = (lambda q, dq: Fd * dq) if Fd is not None else (lambda q, dq: Fv @ dq)
+            elif Kd is not None and Fd is not None:
+                extra = lambda q, dq: Kd * q + Fd * dq
+            else:
+                extra = lambda q, dq: K @ q + Fv @ dq
+        else:
+            extra = self.extra
+        self.bias = lambda q, dq: nle(model, data, q, dq) + extra(q, dq)
+        self.inverse_dynamics = lambda q, dq, a: rnea(model, data, q, dq, a) + extra(q, dq)
+        self.forward_dynamics = lambda q, dq, tau: aba(model, data, q, dq, tau - extra(q, dq))
+
+    # -------------------------------------------------------------- other terms (not in the hot path)
+    def gravity(self, q) -> np.ndarray:
+        """g(q) + k(q): every static (position-only) force, gravity and springs."""
+        return self.num.g(q) + self.num.spring(q)
+
+    def coriolis_matrix(self, q, dq) -> np.ndarray:
+        """C(q, q') from the Christoffel symbols (M' = C + C^T)."""
+        return self.num.C(q, dq)
+
+    def friction(self, dq) -> np.ndarray:
+        out = self.num.friction(dq)
+        return out if self.extra_viscous is None else out + self.extra_viscous * dq
+
+
+def _diagonal(A: Optional[np.ndarray]) -> Optional[np.ndarray]:
+    """The diagonal of A when A is diagonal, else None."""
+    if A is None or np.any(A - np.diag(np.diag(A))):
+        return None
+    return np.diag(A).copy()
+
+
+def _linear_map(vec: sp.Matrix, variables, subs) -> Optional[Tuple[np.ndarray, np.ndarray]]:
+    """(A, b) with vec = A x + b at the given parameter values, or None when vec is not linear in x."""
+    A = vec.jacobian(sp.Matrix(variables))
+    if any(e.free_symbols & set(variables) for e in A):
+        return None
+    b = vec - A * sp.Matrix(variables)
+    b = b.subs({v: 0 for v in variables})
+    try:
+        return (np.array(A.subs(subs), dtype=float).reshape(len(vec), len(variables)),
+                np.array(b.subs(subs), dtype=float).reshape(len(vec)))
+    except TypeError:
+        return None
+
+
+# ====================================================================== task points
+_POINT_CACHE: Dict[Tuple[str, str, tuple], Tuple[Callable, Callable, Callable]] = {}
+
+
+class TaskPoint:
+    """A point fixed in a body: position p(q), Jacobian J(q) and J'(q) q' in task coordinates
+    (x, y for planar robots, x, y, z otherwise), at fixed parameter values.
+
+    >>> from app.core.robot import load_robot
+    >>> ee = TaskPoint(load_robot("planar_2r"), "ee")
+    >>> ee.position(np.array([0.0, 0.0])).tolist(), ee.dim
+    ([1.8, 0.0], 2)
+    """
+
+    def __init__(self, robot: RobotModel, point: Union[str, Tuple[Optional[str], Sequence]],
+                 values: Optional[Mapping[str, float]] = None):
+        body, local, label = resolve_point(robot, point)
+        self.robot, self.body, self.local, self.name = robot, body, local, label
+        self.rows = [0, 1] if robot.is_planar else [0, 1, 2]
+        self.dim = len(self.rows)
+        self.axes = ["x", "y", "z"][:self.dim]
+        values = dict(robot.parameter_values()) if values is None else dict(values)
+        self.p = np.array([values[name] for name in robot.parameters], dtype=float)
+        key = (robot.content_hash or repr(robot.name), str(body), tuple(str(e) for e in local))
+        fns = _POINT_CACHE.get(key)
+        if fns is None:
+            kin = Kinematics(robot)
+            q, dq = sp.Matrix(robot.q), sp.Matrix(robot.dq)
+            pos = kin.point_position(body, sp.Matrix(local))[self.rows, :]
+            J = pos.jacobian(q)
+            Jd_dq = (J * dq).jacobian(q) * dq
+            args = [robot.q, robot.parameter_symbols]
+            fns = (sp.lambdify(args, pos, "numpy", cse=True), sp.lambdify(args, J, "numpy", cse=True),
+                   sp.lambdify([robot.q, robot.dq, robot.parameter_symbols], Jd_dq, "numpy", cse=True))
+            _POINT_CACHE[key] = fns
+        self._fp, self._fJ, self._fJd = fns
+        n = robot.n
+        self._shape = (self.dim, n)
+
+    def position(self, q) -> np.ndarray:
+        return np.asarray(self._fp(q, self.p), dtype=float).reshape(self.dim)
+
+    def jacobian(self, q) -> np.ndarray:
+        return np.asarray(self._fJ(q, self.p), dtype=float).reshape(self._shape)
+
+    def jdot_dq(self, q, dq) -> np.ndarray:
+        """J'(q, q') q' (the velocity-product part of the point's acceleration)."""
+        return np.asarray(self._fJd(q, dq, self.p), dtype=float).reshape(self.dim)
+
+
+def resolve_point(robot: RobotModel, point) -> Tuple[Optional[str], Tuple, str]:
+    """(body, local position, label) of a named point, a body name (its frame origin), or a
+    (body, [x, y, z]) pair."""
+    if isinstance(point, str):
+        if point in robot.points:
+            pt = robot.points[point]
+            return pt.body, tuple(pt.position), point
+        if point in [b.name for b in robot.bodies]:
+            return point, (0, 0, 0), point
+        names = list(robot.points) + [b.name for b in robot.bodies]
+        raise SimulationError(f"{robot.name} has no point or body '{point}' (known: {', '.join(names)})")
+    try:
+        body, local = point
+        local = tuple(float(x) for x in local)
+    except (TypeError, ValueError):
+        raise SimulationError(f"a point is a name or (body, [x, y, z]), got {point!r}") from None
+    if len(local) == 2:
+        local = local + (0.0,)
+    if len(local) != 3:
+        raise SimulationError(f"a point's local position needs 3 coordinates, got {len(local)}")
+    if body not in (None, "base") and body not in [b.name for b in robot.bodies]:
+        raise SimulationError(f"{robot.name} has no body '{body}'")
+    body = None if body == "base" else body
+    return body, local, f"{body or 'base'}@{','.join(f'{x:g}' for x in local)}"
+
+
+# ====================================================================== contacts
+@dataclass
+class PointForce:
+    """A force F (world frame, newtons: x, y for planar robots) on a point, between ``start`` and
+    ``end`` seconds: a collision, a push, a payload."""
+    point: Union[str, Tuple]
+    force: Sequence[float]
+    start: float = 0.0
+    end: float = math.inf
+
+
+@dataclass
+class Surface:
+    """A plane n^T p = offset that the point cannot cross; ``normal`` n points to the free side.
+
+    ``stiffness`` None: rigid, a bilateral constraint (the point stays on the surface, the contact
+    force is solved exactly; a run stops if the surface would have to pull). With a stiffness
+    k (N/m) and damping d (N s/m): a compliant, unilateral wall F = (k delta - d delta') n for a
+    penetration delta > 0. ``offset`` None: through the point's initial position."""
+    point: Union[str, Tuple]
+    normal: Sequence[float]
+    offset: Optional[float] = None
+    stiffness: Optional[float] = None
+    damping: float = 0.0
+
+    @property
+    def rigid(self) -> bool:
+        return self.stiffness is None
+
+
+class _Contact:
+    """A contact resolved on a robot: its task point (at the plant's parameters) and force law."""
+
+    def __init__(self, spec, robot, values, q0):
+        self.spec = spec
+        self.point = TaskPoint(robot, spec.point, values)
+        self.name = self.point.name
+        dim = self.point.dim
+        if isinstance(spec, PointForce):
+            F = np.asarray(spec.force, dtype=float).reshape(-1)
+            if F.size == 3 and dim == 2:
+                if F[2] != 0:
+                    raise SimulationError("a planar robot feels only in-plane forces (x, y)")
+                F = F[:2]
+            if F.size != dim or not np.all(np.isfinite(F)):
+                raise SimulationError(f"force on {self.name}: expected {dim} finite components, got {list(spec.force)}")
+            if not spec.end > spec.start:
+                raise SimulationError(f"force on {self.name}: the end time must follow the start time")
+            self.F = F
+            self.kind = "force"
+        else:
+            n = np.asarray(spec.normal, dtype=float).reshape(-1)
+            if n.size == 3 and dim == 2:
+                n = n[:2]
+            if n.size != dim or not np.linalg.norm(n) > 0:
+                raise SimulationError(f"surface at {self.name}: the normal needs {dim} components, not all zero")
+            self.n = n / np.linalg.norm(n)
+            self.offset = float(self.n @ self.point.position(q0)) if spec.offset is None else float(spec.offset)
+            if spec.stiffness is not None and not spec.stiffness > 0:
+                raise SimulationError("surface stiffness must be positive (omit it for a rigid surface)")
+            if spec.damping < 0:
+                raise SimulationError("surface damping must not be negative")
+            self.kind = "rigid" if spec.rigid else "wall"
+
+    def force(self, t, q, dq) -> np.ndarray:
+        """Force on the robot (task coordinates) of a force or a compliant wall."""
+        if self.kind == "force":
+            return self.F if self.spec.start <= t < self.spec.end else np.zeros_like(self.F)
+        pen = self.offset - self.n @ self.point.position(q)
+        if pen <= 0:
+            return np.zeros_like(self.n)
+        rate = -(self.n @ (self.point.jacobian(q) @ dq))
+        mag = self.spec.stiffness * pen + self.spec.damping * rate
+        return max(mag, 0.0) * self.n
+
+
+class _Plant:
+    """The real robot: ModelTerms at the plant's parameters, passive joints, contacts."""
+
+    #: Baumgarte stabilization of rigid contacts: phi'' + 2 w phi' + w^2 phi = 0
+    BAUMGARTE = 50.0
+
+    def __init__(self, terms: ModelTerms, contacts: List[_Contact]):
+        self.terms = terms
+        self.soft = [c for c in contacts if c.kind != "rigid"]
+        self.rigid = [c for c in contacts if c.kind == "rigid"]
+        self.contacts = contacts
+        self.last_lambda = np.zeros(len(self.rigid))
+        if not contacts:
+            self.accel = terms.forward_dynamics
+        else:
+            self.accel = self._accel_contacts
+
+    def _external(self, t, q, dq):
+        tau = np.zeros(self.terms.n)
+        for c in self.soft:
+            F = c.force(t, q, dq)
+            if F.any():
+                tau = tau + c.point.jacobian(q).T @ F
+        return tau
+
+    def _accel_contacts(self, q, dq, tau, t=0.0):
+        tau = tau + self._external(t, q, dq)
+        if not self.rigid:
+            return self.terms.forward_dynamics(q, dq, tau)
+        M = self.terms.M(q)
+        rhs = tau - self.terms.bias(q, dq)
+        A = np.array([c.n @ c.point.jacobian(q) for c in self.rigid])
+        w = self.BAUMGARTE
+        b = np.array([-(c.n @ c.point.jdot_dq(q, dq)) - 2 * w * (A[i] @ dq)
+                      - w * w * (c.n @ c.point.position(q) - c.offset) for i, c in enumerate(self.rigid)])
+        Minv_At = np.linalg.solve(M, A.T)
+        Minv_rhs = np.linalg.solve(M, rhs)
+        lam = np.linalg.solve(A @ Minv_At, b - A @ Minv_rhs)
+        self.last_lambda = lam
+        return Minv_rhs + Minv_At @ lam
+
+    def forces(self, t, q, dq, tau) -> List[np.ndarray]:
+        """Contact forces on the robot (task coordinates), one per contact, at a state."""
+        out = []
+        if self.rigid:
+            self._accel_contacts(q, dq, tau, t)
+        k = 0
+        for c in self.contacts:
+            if c.kind == "rigid":
+                out.append(self.last_lambda[k] * c.n)
+                k += 1
+            else:
+                out.append(c.force(t, q, dq))
+        return out
+
+
+# ====================================================================== results
+@dataclass
+class SimResult:
+    """Arrays of a run (one row per control sample) and what produced them.
+
+    ``q, dq, ddq, tau`` have one column per coordinate; ``ref, dref, ddref`` (the reference),
+    ``actual, dactual`` (the referenced quantity: joints, a point's position, ...) and
+    ``e = ref - actual``, ``de`` have one column per reference coordinate; ``internals`` maps a
+    column name to the controller's (and observer's) internal signals; ``forces`` maps a contact
+    to its force on the robot. ``message`` says why a run stopped early ('' when it completed)."""
+    robot: str
+    controller: str
+    title: str
+    law_latex: str
+    gains: Dict[str, List[float]]
+    reference: str
+    coordinates: List[str]
+    reference_names: List[str]
+    t: np.ndarray
+    q: np.ndarray
+    dq: np.ndarray
+    ddq: np.ndarray
+    tau: np.ndarray
+    ref: np.ndarray
+    dref: np.ndarray
+    ddref: np.ndarray
+    actual: np.ndarray
+    dactual: np.ndarray
+    internals: Dict[str, np.ndarray] = field(default_factory=dict)
+    forces: Dict[str, np.ndarray] = field(default_factory=dict)
+    force_axes: List[str] = field(default_factory=list)
+    message: str = ""
+    rate: float = 1000.0
+    wall_time: float = 0.0
+    loop_time: float = 0.0
+    settings: Dict[str, str] = field(default_factory=dict)
+
+    @property
+    def completed(self) -> bool:
+        return not self.message
+
+    @property
+    def e(self) -> np.ndarray:
+        return self.ref - self.actual
+
+    @property
+    def de(self) -> np.ndarray:
+        return self.dref - self.dactual
+
+    @property
+    def real_time_factor(self) -> float:
+        """Simulated time / wall-clock time of the loop (set-up excluded: see ``wall_time``)."""
+        return float(self.t[-1]) / self.loop_time if self.loop_time > 0 and len(self.t) else math.inf
+
+    def columns(self) -> Tuple[List[str], np.ndarray]:
+        """Column names and a 2-D array (one row per sample) of everything recorded."""
+        names, cols = ["t"], [self.t[:, None]]
+        c, r = self.coordinates, self.reference_names
+        for prefix, arr, labels in (("", self.q, c), ("d", self.dq, c), ("dd", self.ddq, c),
+                                    ("tau_", self.tau, c), ("ref_", self.ref, r), ("dref_", self.dref, r),
+                                    ("e_", self.e, r), ("de_", self.de, r)):
+            names += [f"{prefix}{x}" for x in labels]
+            cols.append(arr)
+        for name, arr in self.internals.items():
+            names.append(name)
+            cols.append(arr[:, None])
+        for name, arr in self.forces.items():
+            names += [f"F_{name}_{a}" for a in self.force_axes[:arr.shape[1]]]
+            cols.append(arr)
+        return names, np.hstack(cols) if cols else np.zeros((0, 0))
+
+    def metadata(self) -> Dict[str, str]:
+        """What produced the run, as text: robot, controller, law, gains, reference, settings, status."""
+        return {"robot": self.robot, "controller": self.controller, "law": self.law_latex,
+                "gains": "; ".join(f"{k}={','.join(f'{x:g}' for x in v)}" for k, v in self.gains.items()),
+                "reference": self.reference, "rate_hz": f"{self.rate:g}", **self.settings,
+                "status": self.message or "completed"}
+
+    def to_csv(self, target=None) -> str:
+        """CSV text, a header row then one row per sample (and written to a path or file when given)."""
+        names, data = self.columns()
+        buf = io.StringIO()
+        writer = csv.writer(buf, lineterminator="\n")
+        writer.writerow(names)
+        for row in data:
+            writer.writerow([f"{x:.9g}" for x in row])
+        text = buf.getvalue()
+        if target is not None:
+            if hasattr(target, "write"):
+                target.write(text)
+            else:
+                with open(target, "w", encoding="utf-8", newline="") as fh:
+                    fh.write(text)
+        return text
+
+
+# ====================================================================== the simulation
+def _vector_option(value, n: int, what: str, sign: str = "any") -> Optional[np.ndarray]:
+    """One value per coordinate (or one for all); ``sign``: 'any', 'positive' or 'nonnegative'."""
+    if value is None:
+        return None
+    arr = np.atleast_1d(np.asarray(value, dtype=float)).reshape(-1)
+    if arr.size == 1:
+        arr = np.full(n, arr[0])
+    if arr.size != n or not np.all(np.isfinite(arr)):
+        raise SimulationError(f"{what}: expected {n} finite values (one per coordinate) or one for all")
+    if sign == "positive" and np.any(arr <= 0):
+        raise SimulationError(f"{what}: values must be positive")
+    if sign == "nonnegative" and np.any(arr < 0):
+        raise SimulationError(f"{what}: values must not be negative")
+    return arr
+
+
+def simulate(robot: Union[RobotModel, str], controller: Union[Controller, str], reference=None,
+             duration: float = 2.0, rate: float = 1000.0, substeps: int = 1,
+             q0: Optional[Sequence[float]] = None, dq0: Optional[Sequence[float]] = None,
+             gains: Optional[Mapping[str, float]] = None,
+             plant_params: Optional[Mapping[str, float]] = None,
+             model_params: Optional[Mapping[str, float]] = None,
+             viscous=None, saturation=None, passive: Optional[Sequence[str]] = None,
+             contacts: Sequence[Union[PointForce, Surface]] = (), observer=None,
+             point: Optional[str] = None, backend: str = "auto", progress: Progress = None,
+             stop_at_limits: bool = True, max_speed: float = 1e3) -> SimResult:
+    """Run ``controller`` in closed loop on ``robot`` for ``duration`` seconds.
+
+    - ``controller``: a Controller or its name (``gains`` then sets its gains by name).
+    - ``reference``: a Reference, a text such as ``"quintic goal=1,0.5 T=2"``
+      (trajectories.parse_reference), or None (hold the initial value).
+    - ``rate``: control rate in Hz (zero-order hold); the plant takes ``substeps`` RK4 steps per period.
+    - ``plant_params`` / ``model_params``: parameter overrides of the real plant and of the
+      controller's model (model mismatch); ``viscous``: extra viscous friction of the plant
+      (N m s/rad, one value or one per coordinate), unknown to the controller.
+    - ``saturation``: torque bounds (one value or one per coordinate), or ``"limits"`` for the
+      robot file's torque limits; ``passive``: coordinates without actuator (default: the file's).
+    - ``contacts``: PointForce and Surface objects; ``observer``: K_I gain(s) of a momentum-based
+      collision residual running beside the controller; ``point``: the task point of Cartesian
+      controllers (default: a surface's point, else 'ee', else the robot's first point).
+    - ``progress(fraction, message)``: called about 100 times; returning False stops the run.
+    - ``stop_at_limits``: stop when a coordinate leaves its position limits; any run also stops on
+      NaN, or when a speed exceeds ``max_speed``.
+    """
+    wall0 = time.perf_counter()
+    robot = robot if isinstance(robot, RobotModel) else load_robot(robot)
+    n = robot.n
+    if not duration > 0 or not math.isfinite(duration):
+        raise SimulationError(f"the duration must be a positive number of seconds, got {duration}")
+    if not rate > 0 or not math.isfinite(rate):
+        raise SimulationError(f"the control rate must be a positive number of Hz, got {rate}")
+    if int(substeps) != substeps or substeps < 1:
+        raise SimulationError(f"substeps must be a positive integer, got {substeps}")
+    N = int(round(duration * rate))
+    if N < 1:
+        raise SimulationError(f"{duration} s at {rate:g} Hz is less than one control period")
+    if N > 10_000_000:
+        raise SimulationError(f"{N} control steps are too many (duration x rate <= 1e7)")
+    period = 1.0 / rate
+    h = period / substeps
+
+    # initial state
+    if q0 is None:
+        q0 = [robot.defaults.get(c, 0.0) for c in robot.coordinates]
+    if np.size(q0) != n:
+        raise SimulationError(f"q0 needs {n} values ({', '.join(robot.coordinates)}), got {np.size(q0)}")
+    q0 = _vector_option(q0, n, "initial configuration q0")
+    dq0 = np.zeros(n) if dq0 is None else np.asarray(dq0, dtype=float).reshape(-1)
+    if dq0.size != n or not np.all(np.isfinite(dq0)):
+        raise SimulationError(f"dq0 needs {n} finite values ({', '.join(robot.coordinates)})")
+    limits = _position_limits(robot)
+    if stop_at_limits:
+        bad = np.flatnonzero((q0 < limits[0]) | (q0 > limits[1]))
+        if bad.size:
+            i = bad[0]
+            raise SimulationError(f"the initial {robot.coordinates[i]} = {q0[i]:g} is outside its limits "
+                                  f"[{limits[0][i]:g}, {limits[1][i]:g}]")
+
+    # actuation
+    if passive is None:
+        actuated = np.array(robot.actuated, dtype=bool)
+    else:
+        unknown = [p for p in passive if p not in robot.coordinates]
+        if unknown:
+            raise SimulationError(f"passive: unknown coordinate(s) {unknown} (the robot has {list(robot.coordinates)})")
+        actuated = np.array([c not in passive for c in robot.coordinates], dtype=bool)
+    mask = None if actuated.all() else actuated.astype(float)
+
+    # torque bounds
+    if isinstance(saturation, str):
+        if saturation != "limits":
+            raise SimulationError(f"saturation: a number, one per coordinate, or 'limits' (got {saturation!r})")
+        bounds = np.array([robot.limits[c].torque if c in robot.limits and robot.limits[c].torque else np.inf
+                           for c in robot.coordinates])
+        if np.all(np.isinf(bounds[actuated])):
+            raise SimulationError(f"{robot.name} has no torque limits in its file; give bounds as numbers")
+    else:
+        bounds = _vector_option(saturation, n, "saturation (torque bounds)", "positive")
+
+    # models: controller's and plant's
+    viscous = _vector_option(viscous, n, "viscous friction", "nonnegative")
+    model = ModelTerms(robot, model_params, backend)
+    plant_terms = ModelTerms(robot, plant_params, backend, extra_viscous=viscous)
+
+    # contacts
+    resolved = [_Contact(c, robot, plant_terms.values, q0) for c in contacts]
+    rigid = [c for c in resolved if c.kind == "rigid"]
+    for c in rigid:
+        gap = c.n @ c.point.position(q0) - c.offset
+        if abs(gap) > 1e-6:
+            raise SimulationError(f"the point {c.name} is {gap * 1000:.3g} mm from the rigid surface at the start; "
+                                  "start on it (or leave the offset out: the surface then passes through the point)")
+        vn = c.n @ (c.point.jacobian(q0) @ dq0)
+        if abs(vn) > 1e-9:
+            raise SimulationError(f"the point {c.name} starts moving across the rigid surface (normal speed {vn:g} m/s)")
+    plant = _Plant(plant_terms, resolved)
+
+    # controller
+    if isinstance(controller, str):
+        controller = make_controller(controller, gains)
+    elif gains:
+        controller.set_gains(gains)
+    task_point = point
+    if task_point is None:
+        task_point = next((c.spec.point for c in resolved if c.kind != "force"), None)
+    setup = ControlSetup(robot=robot, model=model, period=period, actuated=actuated, q0=q0, dq0=dq0,
+                         make_point=lambda p: TaskPoint(robot, p, model.values), task_point=task_point,
+                         surfaces=[(c.name, c.kind, getattr(c, "n", None), getattr(c, "offset", None))
+                                   for c in resolved if c.kind != "force"])
+    sensor: Dict[str, np.ndarray] = {}
+    setup.read_force = lambda name: sensor.get(name)
+    controller.setup(setup)
+    ref_names = controller.reference_names
+    start = controller.reference_start
+    if reference is None or isinstance(reference, str):
+        reference = parse_reference(reference, start, ref_names)
+    if not isinstance(reference, Reference):
+        raise SimulationError("reference: a text like 'quintic goal=1,0.5 T=2' or a trajectories.Reference")
+    if reference.n != len(ref_names):
+        raise SimulationError(f"{controller.name}: the reference needs {len(ref_names)} coordinates "
+                              f"({', '.join(ref_names)}), got {reference.n}")
+    controller.begin(reference)
+    obs = None
+    if observer is not None:
+        obs = MomentumObserver(observer)
+        obs.setup(setup)
+
+    # time grid and reference, sampled once
+    t = np.arange(N + 1) * period
+    QD, DQD, DDQD = reference.sample(t)
+    Q = np.empty((N + 1, n))
+    DQ = np.empty((N + 1, n))
+    DDQ = np.empty((N + 1, n))
+    TAU = np.empty((N + 1, n))
+    internal_names = list(controller.internal_names) + ([] if obs is None else list(obs.internal_names))
+    INT = np.empty((N + 1, len(internal_names))) if internal_names else None
+    contact_names = [c.name for c in resolved]
+    FORCES = np.zeros((N + 1, len(resolved), resolved[0].point.dim)) if resolved else None
+
+    # the loop
+    step = controller.step
+    accel = plant.accel
+    has_contacts = bool(resolved)
+    ctrl_internals = controller.internals if controller.internal_names else None
+    lo, hi = limits
+    names = robot.coordinates
+    check_every = 10
+    progress_every = max(1, N // 100)
+    q, dq = q0.copy(), dq0.copy()
+    tau = np.zeros(n)
+    h2, h6 = h / 2, h / 6
+    message = ""
+    last = N
+    loop_start = time.perf_counter()
+    for k in range(N + 1):
+        tk = t[k]
+        try:
+            if has_contacts:      # the force sensor, read before the new torque is applied
+                for j, f in enumerate(plant.forces(tk, q, dq, tau)):
+                    sensor[contact_names[j]] = f
+            tau = step(k, tk, q, dq, QD[k], DQD[k], DDQD[k])
+            if bounds is not None:
+                tau = np.clip(tau, -bounds, bounds)
+            if mask is not None:
+                tau = tau * mask
+            if has_contacts:      # the contact forces acting from t_k on (with the new torque)
+                for j, f in enumerate(plant.forces(tk, q, dq, tau)):
+                    FORCES[k, j] = f
+            if obs is not None:
+                obs.update(q, dq, tau)
+            Q[k] = q
+            DQ[k] = dq
+            TAU[k] = tau
+            if INT is not None:
+                if ctrl_internals is not None:
+                    ci = ctrl_internals()
+                    INT[k, :ci.size] = ci
+                if obs is not None:
+                    INT[k, INT.shape[1] - n:] = obs.r
+            if has_contacts:
+                a1 = accel(q, dq, tau, tk)
+            else:
+                a1 = accel(q, dq, tau)
+            DDQ[k] = a1
+            if k == N:
+                break
+            for s in range(substeps):
+                ts = tk + s * h
+                if s:
+                    a1 = accel(q, dq, tau, ts) if has_contacts else accel(q, dq, tau)
+                q2 = q + h2 * dq
+                v2 = dq + h2 * a1
+                a2 = accel(q2, v2, tau, ts + h2) if has_contacts else accel(q2, v2, tau)
+                q3 = q + h2 * v2
+                v3 = dq + h2 * a2
+                a3 = accel(q3, v3, tau, ts + h2) if has_contacts else accel(q3, v3, tau)
+                q4 = q + h * v3
+                v4 = dq + h * a3
+                a4 = accel(q4, v4, tau, ts + h) if has_contacts else accel(q4, v4, tau)
+                q = q + h6 * (dq + 2.0 * (v2 + v3) + v4)
+                dq = dq + h6 * (a1 + 2.0 * (a2 + a3) + a4)
+        except np.linalg.LinAlgError as exc:
+            message = f"stopped at t = {tk:.3f} s: a singular matrix ({exc}) - a singular configuration?"
+            last = k - 1
+            break
+        except FloatingPointError as exc:
+            message = f"stopped at t = {tk:.3f} s: {exc}"
+            last = k - 1
+            break
+        except ControlStop as stop:
+            message = f"{stop} at t = {tk:.3f} s"
+            last = k - 1
+            break
+        if k % check_every == check_every - 1 or k == N - 1:
+            bad = _first_bad(q, dq, lo, hi, stop_at_limits, max_speed, names)
+            if bad is not None:
+                # locate the first bad sample exactly: replay the check on the recorded block
+                j0 = k - (k % check_every)
+                first = None
+                for j in range(j0, k + 1):
+                    if _first_bad(Q[j], DQ[j], lo, hi, stop_at_limits, max_speed, names) is not None:
+                        first = j
+                        break
+                if first is None:
+                    first, qs, dqs = k + 1, q, dq
+                    Q[first], DQ[first] = q, dq
+                else:
+                    qs, dqs = Q[first], DQ[first]
+                what = _first_bad(qs, dqs, lo, hi, stop_at_limits, max_speed, names)
+                message = f"{what} at t = {t[first]:.3f} s"
+                last = first - 1
+                break
+        if progress is not None and k % progress_every == 0:
+            if progress(k / N, f"t = {tk:.2f} s") is False:
+                message = f"stopped by the user at t = {tk:.3f} s"
+                last = k
+                break
+    loop_time = time.perf_counter() - loop_start
+    if last < 0:
+        raise SimulationError(message or "the simulation stopped before its first sample")
+    if progress is not None and not message:
+        progress(1.0, "done")
+    sl = slice(0, last + 1)
+    X, DX = controller.measure(Q[sl], DQ[sl])
+    internals = {}
+    if INT is not None:
+        for j, name in enumerate(internal_names):
+            internals[name] = INT[sl, j].copy()
+    forces = {}
+    if FORCES is not None:
+        for j, name in enumerate(contact_names):
+            key = name if name not in forces else f"{name}{j + 1}"
+            forces[key] = FORCES[sl, j].copy()
+    settings = {"duration_s": f"{duration:g}", "substeps": str(substeps), "backend": plant_terms.backend}
+    if plant_params:
+        settings["plant"] = ", ".join(f"{k}={v:g}" for k, v in plant_params.items())
+    if model_params:
+        settings["model"] = ", ".join(f"{k}={v:g}" for k, v in model_params.items())
+    if viscous is not None:
+        settings["viscous"] = ",".join(f"{v:g}" for v in viscous)
+    if bounds is not None:
+        settings["saturation"] = ",".join(f"{v:g}" for v in bounds)
+    if not actuated.all():
+        settings["passive"] = ",".join(c for c, a in zip(robot.coordinates, actuated) if not a)
+    if obs is not None:
+        settings["observer_KI"] = ",".join(f"{v:g}" for v in obs.K)
+    for c in resolved:
+        if c.kind == "force":
+            settings[f"force_{c.name}"] = f"F={','.join(f'{v:g}' for v in c.F)} from {c.spec.start:g} s to {c.spec.end:g} s"
+        else:
+            settings[f"surface_{c.name}"] = (f"normal={','.join(f'{v:g}' for v in c.n)} offset={c.offset:g}"
+                                             + ("" if c.kind == "rigid" else f" k={c.spec.stiffness:g} d={c.spec.damping:g}"))
+    return SimResult(
+        robot=robot.name, controller=controller.name, title=controller.title, law_latex=controller.law_latex,
+        gains={k: [float(x) for x in np.atleast_1d(v)] for k, v in controller.gain_arrays.items()},
+        reference=reference.describe(), coordinates=list(robot.coordinates), reference_names=list(ref_names),
+        t=t[sl].copy(), q=Q[sl].copy(), dq=DQ[sl].copy(), ddq=DDQ[sl].copy(), tau=TAU[sl].copy(),
+        ref=QD[sl].copy(), dref=DQD[sl].copy(), ddref=DDQD[sl].copy(), actual=X, dactual=DX,
+        internals=internals, forces=forces, force_axes=(resolved[0].point.axes if resolved else []),
+        message=message, rate=rate, wall_time=time.perf_counter() - wall0, loop_time=loop_time, settings=settings)
+
+
+def _position_limits(robot: RobotModel) -> Tuple[np.ndarray, np.ndarray]:
+    lo = np.full(robot.n, -np.inf)
+    hi = np.full(robot.n, np.inf)
+    for i, c in enumerate(robot.coordinates):
+        lim = robot.limits.get(c)
+        if lim is not None and lim.position is not None:
+            lo[i], hi[i] = lim.position
+    return lo, hi
+
+
+def _first_bad(q, dq, lo, hi, use_limits, max_speed, names) -> Optional[str]:
+    """Why a state is not acceptable (None when it is)."""
+    if not (np.all(np.isfinite(q)) and np.all(np.isfinite(dq))):
+        return "the state became NaN or infinite (the run diverged)"
+    if use_limits:
+        out = np.flatnonzero((q < lo) | (q > hi))
+        if out.size:
+            i = out[0]
+            return f"{names[i]} left its limits [{lo[i]:.4g}, {hi[i]:.4g}]"
+    fast = np.flatnonzero(np.abs(dq) > max_speed)
+    if fast.size:
+        return f"the speed of {names[fast[0]]} exceeded {max_speed:g} rad/s or m/s (the run diverged)"
+    return None
