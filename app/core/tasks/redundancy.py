@@ -1,0 +1,238 @@
+"""Redundancy-resolution tasks (numeric, at a configuration): pseudoinverse and its weighted,
+damped and projected-gradient variants, task priority, reduced gradient, SNS, and the
+weighted-pseudoinverse identities. Values follow the conventions of ``kinematic`` (TaskData).
+
+``pseudoinverse``: ``jacobian`` (name of a jacobian task or a matrix), ``task`` (vector);
+  options ``weights`` (diagonal list, matrix, matrix of expressions of q, or ``inertia`` for
+  the robot's M(q)), ``damping`` (mu of damped least squares), ``gradient`` ({objective:
+  expression of q} or {joint_range: {lower, upper}}, with ``alpha`` (default 1) and ``maximize``
+  (default false): q'_0 = -/+ alpha grad H projected in the null space), ``preferred`` (q'_0),
+  ``fixed`` ({joint index from 1: value}), ``bounds`` ({max} or {lower, upper}: smallest task
+  scaling keeping the null-space term), ``check`` ({jacobian name: task vector}: errors on other
+  tasks), ``q``.
+  Answers: ``<name>``, ``<name>_error``, ``<name>_norm``, ``<name>_pinv``, ``<name>_task``,
+  ``<name>_null``, ``<name>_projector``, ``<name>_gradient``, ``<name>_cost`` (1/2 q'^T W q'),
+  ``<name>_scale``/``<name>_unscaled`` (with bounds), ``<name>_error_<J>`` and
+  ``<name>_error_<J>_norm`` (checks).
+``task_priority``: ``tasks`` [{jacobian, task}, ...] by decreasing priority. Answers ``<name>``,
+  ``<name>_error_<k>`` (k = 1, 2, ...), ``<name>_error`` (stacked), ``<name>_error_norm``,
+  ``<name>_projected_<k>`` (J_k P_(k-1)), ``<name>_algorithmic_singularity`` (list of booleans).
+``reduced_gradient``: ``jacobian``, ``task``, ``gradient`` ({objective}), ``alpha``, ``maximize``
+  (default true). Answers ``<name>``, ``<name>_minors``, ``<name>_gradient_b``, ``<name>_grad``.
+``sns``: ``jacobian``, ``task``, ``bounds``, ``level`` (velocity | acceleration), ``drift``
+  (J' q' at acceleration level, subtracted from the task) or ``joint_velocity`` (q', from which
+  J' q' is computed), ``minimum_norm`` (bool).
+  Answers ``<name>``, ``<name>_scale``, ``<name>_norm``, ``<name>_iterations`` and per iteration k
+  ``<name>_candidate_<k>``, ``<name>_task_<k>``, ``<name>_pinv_<k>`` (pseudoinverse of the
+  columns of the free joints).
+``weighted_pinv_identity``: ``jacobian``, ``weights``: J_W^# computed as W^-1 J^T (J W^-1 J^T)^-1
+  and as W^(-1/2) (J W^(-1/2))^#, and the three Moore-Penrose-like identities. Answers
+  ``<name>`` (J_W^#), ``<name>_direct``, ``<name>_identities`` (list of residual norms).
+"""
+from __future__ import annotations
+
+import numpy as np
+import sympy as sp
+
+from .. import redundancy as red
+from ..latex import mat, num, vec
+from . import task
+from .kinematic import data
+
+
+def _bounds(d, spec, n):
+    return d.bounds(spec, n, "bounds") if spec is not None else (None, None)
+
+
+def _gradient(d, spec, q, n):
+    """(grad H at q, latex of H) from {objective: expr} or {joint_range: {lower, upper}}."""
+    robot = d.robot
+    if "objective" in spec:
+        H = d.expression(spec["objective"], "gradient.objective")
+        subs = {sp.Symbol(k, real=True): v for k, v in d.scalars().items() if k not in robot.coordinates}
+        H = H.xreplace(subs)
+        grad = sp.Matrix([sp.diff(H, s) for s in robot.q])
+        values = {s: float(v) for s, v in zip(robot.q, q)}
+        g = np.array([float(e.xreplace(values)) for e in grad])
+        return g, sp.latex(H)
+    if "joint_range" in spec:
+        rng = spec["joint_range"]
+        if rng == "robot" or rng is True:
+            lims = [robot.limits.get(c) for c in robot.coordinates]
+            if any(l is None or l.position is None for l in lims):
+                raise d._fail("gradient.joint_range: the robot file has no position limits for every joint")
+            lo = np.array([l.position[0] for l in lims])
+            hi = np.array([l.position[1] for l in lims])
+        else:
+            lo, hi = d.bounds(rng, n, "gradient.joint_range")
+        mid, width = (lo + hi) / 2, hi - lo
+        g = (q - mid) / (n * width ** 2)
+        return g, r"H_{range} = \frac{1}{2n}\sum_i \left(\frac{q_i - \bar q_i}{q_{M,i} - q_{m,i}}\right)^2"
+    raise d._fail("gradient: expected {objective: expression} or {joint_range: {lower, upper}}")
+
+
+def _weights(d, spec, q, n):
+    if isinstance(spec, str) and spec.strip() == "inertia":
+        return d.ctx.numeric.M(q)
+    W = d.array(spec, "weights", q=q)
+    return red.weighted_matrix(W, n)
+
+
+@task("pseudoinverse")
+def pseudoinverse_task(ctx, spec):
+    """q' = J^+ v (+ null-space term), J^+ the plain, weighted or damped pseudoinverse."""
+    d = data(ctx)
+    name = spec.get("name", "dq")
+    J = d.jacobian(spec.get("jacobian", "J"))
+    m, n = J.shape
+    v = d.array(spec.get("task", "v"), "task").reshape(-1)
+    needs_q = any(k in spec for k in ("gradient",)) or (isinstance(spec.get("weights"), str) and spec["weights"] == "inertia") \
+        or _has_text(spec.get("weights"))
+    q = d.configuration(spec.get("q")) if needs_q else None
+    W = _weights(d, spec["weights"], q, n) if spec.get("weights") is not None else None
+    if W is not None:
+        ctx.step("Weight matrix", "W = " + mat(W), "The norm minimized is q'^T W q'.")
+    preferred = d.array(spec["preferred"], "preferred").reshape(-1) if "preferred" in spec else None
+    grad = None
+    if "gradient" in spec:
+        gspec = spec["gradient"]
+        grad, H_tex = _gradient(d, gspec, q, n)
+        alpha = d.number(gspec.get("alpha", 1.0), "gradient.alpha")
+        sign = 1.0 if gspec.get("maximize") else -1.0
+        preferred = sign * alpha * grad
+        ctx.step("Objective gradient", H_tex + r",\quad \nabla_q H = " + vec(grad),
+                 ("Ascend" if sign > 0 else "Descend") + f" the gradient with step {num(alpha)}, projected in the null space of the task.",
+                 vectors=[{"label": "grad H", "joint_space": True, "vector": grad.tolist(), "role": "gradient"}])
+        ctx.answer(f"{name}_gradient", grad)
+    fixed = None
+    if "fixed" in spec:
+        fixed = {int(k) - 1: d.number(v, f"fixed.{k}") for k, v in spec["fixed"].items()}
+    lo, hi = _bounds(d, spec.get("bounds"), n)
+    res = red.resolve(J, v, weights=W, damping=d.number(spec["damping"]) if "damping" in spec else None,
+                      preferred=preferred, threshold=float(spec.get("threshold", red.DEFAULT_THRESHOLD)),
+                      fixed=fixed, lower=lo, upper=hi)
+    ctx.steps.extend(res.steps)
+    ctx.answer(name, res.dq)
+    ctx.answer(f"{name}_error", res.error)
+    ctx.answer(f"{name}_norm", res.norm)
+    ctx.answer(f"{name}_pinv", res.inverse)
+    ctx.answer(f"{name}_task", res.dq_task)
+    ctx.answer(f"{name}_null", res.dq_null)
+    ctx.answer(f"{name}_projector", res.projector)
+    if W is not None:
+        ctx.answer(f"{name}_cost", float(0.5 * res.dq @ W @ res.dq))
+    if res.scale is not None:
+        ctx.answer(f"{name}_scale", res.scale)
+        ctx.answer(f"{name}_unscaled", res.dq_unscaled)
+    for jname, task_vec in (spec.get("check") or {}).items():
+        Jo = d.jacobian(jname)
+        vo = d.array(task_vec, f"check.{jname}").reshape(-1)
+        e = vo - Jo @ res.dq
+        ctx.step(f"Error on task {jname}", rf"e = v - {jname}\,\dot q = " + vec(e), f"Norm {num(np.linalg.norm(e))}.")
+        ctx.answer(f"{name}_error_{jname}", e)
+        ctx.answer(f"{name}_error_{jname}_norm", float(np.linalg.norm(e)))
+
+
+def _has_text(value) -> bool:
+    if isinstance(value, str):
+        return True
+    if isinstance(value, list):
+        return any(_has_text(v) for v in value)
+    return False
+
+
+@task("task_priority")
+def task_priority_task(ctx, spec):
+    """Recursive task-priority solution for tasks listed by decreasing priority."""
+    d = data(ctx)
+    name = spec.get("name", "dq_tp")
+    items = spec.get("tasks") or []
+    if not items:
+        raise d._fail("task_priority: 'tasks' must list {jacobian, task} entries")
+    tasks = [(d.jacobian(t["jacobian"]), d.array(t["task"], "task").reshape(-1)) for t in items]
+    tp = red.task_priority(tasks, float(spec.get("threshold", red.DEFAULT_THRESHOLD)))
+    ctx.steps.extend(tp.steps)
+    ctx.answer(name, tp.dq)
+    errors = []
+    for k, lev in enumerate(tp.levels, 1):
+        ctx.answer(f"{name}_error_{k}", lev.error)
+        ctx.answer(f"{name}_error_{k}_norm", float(np.linalg.norm(lev.error)))
+        ctx.answer(f"{name}_projected_{k}", lev.projected)
+        errors.append(lev.error)
+    e = np.concatenate(errors)
+    ctx.answer(f"{name}_error", e)
+    ctx.answer(f"{name}_error_norm", float(np.linalg.norm(e)))
+    ctx.answer(f"{name}_algorithmic_singularity", [lev.algorithmic_singularity for lev in tp.levels])
+
+
+@task("reduced_gradient")
+def reduced_gradient_task(ctx, spec):
+    """Reduced-gradient solution (minor of largest |det|)."""
+    d = data(ctx)
+    name = spec.get("name", "dq_rg")
+    J = d.jacobian(spec.get("jacobian", "J"))
+    v = d.array(spec.get("task", "v"), "task").reshape(-1)
+    q = d.configuration(spec.get("q"))
+    grad, H_tex = _gradient(d, spec.get("gradient") or {}, q, J.shape[1])
+    ctx.step("Objective gradient", H_tex + r",\quad \nabla_q H = " + vec(grad), "")
+    rg = red.reduced_gradient(J, v, grad, d.number(spec.get("alpha", 1.0)), bool(spec.get("maximize", True)))
+    ctx.steps.extend(rg.steps)
+    ctx.answer(name, rg.dq)
+    ctx.answer(f"{name}_minors", list(rg.minors.values()))
+    ctx.answer(f"{name}_gradient_b", rg.gradient_b)
+    ctx.answer(f"{name}_grad", grad)
+
+
+@task("sns")
+def sns_task(ctx, spec):
+    """Saturation in the null space at velocity or acceleration level, with its iterations."""
+    d = data(ctx)
+    name = spec.get("name", "dq_sns")
+    J = d.jacobian(spec.get("jacobian", "J"))
+    m, n = J.shape
+    target = d.array(spec.get("task", "v"), "task").reshape(-1)
+    level = spec.get("level", "velocity")
+    if level not in ("velocity", "acceleration"):
+        raise d._fail("sns.level: velocity or acceleration")
+    sym, tsym = (r"\dot q", "v") if level == "velocity" else (r"\ddot q", r"\ddot p")
+    if "drift" in spec or "joint_velocity" in spec:
+        drift = (d.array(spec["drift"], "drift").reshape(-1) if "drift" in spec
+                 else d.drift(spec.get("jacobian", "J"), spec["joint_velocity"]))
+        target = target - drift
+        ctx.step("Task without the drift term", rf"\ddot p - \dot J \dot q = {vec(target)}", "At acceleration level the task is J q'' = p'' - J' q'.")
+    lo, hi = d.bounds(spec.get("bounds") or {}, n)
+    out = red.sns(J, target, lo, hi, minimum_norm=bool(spec.get("minimum_norm", False)),
+                  threshold=float(spec.get("threshold", red.DEFAULT_THRESHOLD)), symbol=sym, task_symbol=tsym)
+    ctx.steps.extend(out.steps)
+    ctx.answer(name, out.dq)
+    ctx.answer(f"{name}_scale", out.scale)
+    ctx.answer(f"{name}_norm", out.norm)
+    ctx.answer(f"{name}_iterations", len(out.iterations))
+    for k, it in enumerate(out.iterations, 1):
+        ctx.answer(f"{name}_candidate_{k}", it.candidate)
+        ctx.answer(f"{name}_task_{k}", it.target)
+        cols = [i - 1 for i in it.active]
+        ctx.answer(f"{name}_pinv_{k}", red.pinv(J[:, cols]) if cols else np.zeros((0, m)))
+
+
+@task("weighted_pinv_identity")
+def weighted_pinv_identity_task(ctx, spec):
+    """J_W^# = W^-1 J^T (J W^-1 J^T)^-1 = W^(-1/2) (J W^(-1/2))^#, and the identities it satisfies."""
+    d = data(ctx)
+    name = spec.get("name", "JW")
+    J = d.jacobian(spec.get("jacobian", "J"))
+    W = red.weighted_matrix(d.array(spec["weights"], "weights"), J.shape[1])
+    Wi = np.linalg.inv(W)
+    A = red.weighted_pinv(J, W)
+    ctx.step("Square root of the weight", r"W^{-1/2} = " + mat(red.inverse_sqrt(W)), "W symmetric positive definite.")
+    ctx.step("Weighted pseudoinverse", r"J_W^\# = W^{-1/2} (J W^{-1/2})^\# = " + mat(A), "Defined for any rank of J.")
+    ctx.answer(name, A)
+    if np.linalg.matrix_rank(J) == J.shape[0]:
+        direct = Wi @ J.T @ np.linalg.inv(J @ Wi @ J.T)
+        ctx.step("Direct formula", r"W^{-1} J^T (J W^{-1} J^T)^{-1} = " + mat(direct), "Full row rank: the two expressions coincide.")
+        ctx.answer(f"{name}_direct", direct)
+    ids = [np.linalg.norm(J @ A @ J - J), np.linalg.norm(A @ J @ A - A), np.linalg.norm((J @ A).T - J @ A),
+           np.linalg.norm((W @ A @ J).T - W @ A @ J)]
+    ctx.step("Identities", r"\|J J_W^\# J - J\| = %s,\ \|J_W^\# J J_W^\# - J_W^\#\| = %s,\ \|(J J_W^\#)^T - J J_W^\#\| = %s,\ \|(W J_W^\# J)^T - W J_W^\# J\| = %s"
+             % tuple(num(x, 12) for x in ids), "All zero (to round-off).")
+    ctx.answer(f"{name}_identities", [float(x) for x in ids])
