@@ -1,6 +1,7 @@
 """The simulation machinery: references, fast model terms, integrator, limits and divergence,
 saturation, passive joints, contacts, results and CSV."""
 import io
+import re
 from pathlib import Path
 
 import numpy as np
@@ -99,6 +100,9 @@ def test_fast_model_terms_agree_with_the_symbolic_model(robot):
             assert np.allclose(m.inverse_dynamics(q, dq, a), num.M(q) @ a + bias, atol=1e-9)
             assert np.allclose(m.forward_dynamics(q, dq, tau), np.linalg.solve(num.M(q), tau - bias), atol=1e-8)
             assert np.allclose(m.gravity(q), num.g(q) + num.spring(q), atol=1e-10)
+            assert np.allclose(m.Minv(q), np.linalg.inv(num.M(q)), atol=1e-8)
+            # any C with M' = C + C^T gives the same C^T q' (the momentum observer's term)
+            assert np.allclose(m.coriolis_matrix(q, dq).T @ dq, num.C(q, dq).T @ dq, atol=1e-9)
 
 
 def test_pinocchio_backend_is_used_where_it_applies():
@@ -127,14 +131,22 @@ def test_viscous_friction_of_the_plant_dissipates():
 
 
 def test_leaving_the_joint_limits_stops_the_run_with_a_message():
-    res = simulate("throwing_arm", "pd", gains={"Kp": 1, "Kd": 1}, duration=3.0)
+    """A PD far too soft to hold the throwing arm: it falls and q1 leaves [-pi/6, 7 pi/6]; the run
+    stops at the first sample outside, keeping the samples before it."""
+    q0 = [1.73, 0.67, 0.63]
+    res = simulate("throwing_arm", "pd", gains={"Kp": 1, "Kd": 1}, q0=q0, duration=3.0)
     assert not res.completed
-    assert res.message == "q1 left its limits [-0.5236, 3.665] at t = 0.606 s"
-    hi = 7 * np.pi / 6
-    assert res.t[-1] == pytest.approx(0.605) and res.q[-1, 0] <= hi
+    match = re.fullmatch(r"q1 left its limits \[-0\.5236, 3\.665\] at t = (\d+\.\d{3}) s", res.message)
+    assert match, res.message
+    t_stop = float(match.group(1))
+    assert t_stop == pytest.approx(res.t[-1] + 0.001)
     assert np.all(np.isfinite(res.q)) and len(res.q) == len(res.t) == len(res.e)
+    lo, hi = -np.pi / 6, 7 * np.pi / 6
+    assert np.all((res.q[:, 0] >= lo) & (res.q[:, 0] <= hi))
+    free = simulate("throwing_arm", "pd", gains={"Kp": 1, "Kd": 1}, q0=q0, duration=t_stop, stop_at_limits=False)
+    assert not lo <= free.q[-1, 0] <= hi                       # really outside at the reported time
     # the same arm held by gravity compensation stays within its limits
-    ok = simulate("throwing_arm", "pd_gravity", duration=1.0)
+    ok = simulate("throwing_arm", "pd_gravity", q0=q0, duration=1.0)
     assert ok.completed
 
 

@@ -535,7 +535,7 @@ class ElasticPD(Controller):
             y[Mo] = theta
             return self.model.gravity(y)[L]
 
-        theta = fsolve(residual, x[L].copy(), xtol=1e-12)
+        theta = fsolve(residual, x[L].copy(), xtol=1e-12, full_output=True)[0]   # checked below
         if np.max(np.abs(residual(theta))) > 1e-8:
             raise GainError(f"{self.name}: no motor positions balance gravity at q_d = {reference.goal.tolist()}")
         x[Mo] = theta
@@ -601,13 +601,12 @@ class Impedance(_Cartesian):
         self._F = np.zeros(self.point.dim)
 
     def step(self, k, t, q, dq, pd, dpd, ddpd):
-        P = self.point
-        J = P.jacobian(q)
-        p, dp = P.position(q), J @ dq
+        p, J, jd = self.point.kinematics(q, dq)
+        dp = J @ dq
         F = self.force()
         self._F = F
         a = ddpd + (self.Dm * (dpd - dp) + self.Km * (pd - p) + F) / self.Mm
-        return self.model.inverse_dynamics(q, dq, np.linalg.solve(J, a - P.jdot_dq(q, dq))) - J.T @ F
+        return self.model.inverse_dynamics(q, dq, np.linalg.solve(J, a - jd)) - J.T @ F
 
     def internals(self):
         return self._F
@@ -636,14 +635,13 @@ class Admittance(_Cartesian):
         self._out = np.concatenate([self.pr, np.zeros(self.point.dim)])
 
     def step(self, k, t, q, dq, pd, dpd, ddpd):
-        P = self.point
-        J = P.jacobian(q)
-        p, dp = P.position(q), J @ dq
+        p, J, jd = self.point.kinematics(q, dq)
+        dp = J @ dq
         F = self.force()
         ddpr = ddpd + (F - self.Dm * (self.dpr - dpd) - self.Km * (self.pr - pd)) / self.Mm
         self._out = np.concatenate([self.pr, F])
         a = ddpr + self.Kd * (self.dpr - dp) + self.Kp * (self.pr - p)
-        tau = self.model.inverse_dynamics(q, dq, np.linalg.solve(J, a - P.jdot_dq(q, dq)))
+        tau = self.model.inverse_dynamics(q, dq, np.linalg.solve(J, a - jd))
         self.dpr = self.dpr + self.dt * ddpr            # semi-implicit Euler of the admittance
         self.pr = self.pr + self.dt * self.dpr
         return tau
@@ -677,8 +675,8 @@ class Hybrid(_Cartesian):
         self.normal = np.asarray(surf[2], dtype=float)
         # tangent basis: complete n to an orthonormal frame
         dim = self.point.dim
-        if dim == 2:
-            T = np.array([[-self.normal[1]], [self.normal[0]]])
+        if dim == 2:      # t = n rotated by -90 degrees: s = x on a floor with n = (0, 1)
+            T = np.array([[self.normal[1]], [-self.normal[0]]])
         else:
             U, _, _ = np.linalg.svd(self.normal.reshape(3, 1))
             T = U[:, 1:]
@@ -692,16 +690,15 @@ class Hybrid(_Cartesian):
         self._out = np.zeros(2)
 
     def step(self, k, t, q, dq, sd, dsd, ddsd):
-        P = self.point
-        J = P.jacobian(q)
-        p, dp = P.position(q), J @ dq
+        p, J, jd = self.point.kinematics(q, dq)
+        dp = J @ dq
         s_, ds_ = self.T.T @ p, self.T.T @ dp
         lam = float(self.normal @ self.force())
         fc = self.Fd + self.KF * self._I
         self._I += self.dt * (self.Fd - lam)
         self._out = np.array([lam, fc])
         a_t = ddsd + self.Kd * (dsd - ds_) + self.Kp * (sd - s_)
-        acc = np.linalg.solve(J, self.T @ a_t - P.jdot_dq(q, dq))
+        acc = np.linalg.solve(J, self.T @ a_t - jd)
         return self.model.inverse_dynamics(q, dq, acc) - J.T @ (self.normal * fc)
 
     def internals(self):

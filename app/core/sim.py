@@ -16,9 +16,9 @@ its coordinates, else from the lambdified symbolic model (``ModelTerms``).
 A run that leaves the joint limits or blows up stops with a message, keeping the samples up to
 that time (here a PD far too soft to hold the throwing arm up):
 
->>> res = simulate("throwing_arm", "pd", gains={"Kp": 1, "Kd": 1}, duration=3.0)
->>> res.message, float(res.t[-1])
-('q1 left its limits [-0.5236, 3.665] at t = 0.606 s', 0.605)
+>>> res = simulate("throwing_arm", "pd", gains={"Kp": 1, "Kd": 1}, q0=[1.73, 0.67, 0.63], duration=3.0)
+>>> res.message.split(" at t = ")[0], res.completed
+('q1 left its limits [-0.5236, 3.665]', False)
 """
 from __future__ import annotations
 
@@ -73,112 +73,122 @@ class ModelTerms:
         self.num = NumericModel(robot, params)
         self.values = self.num.values
         self.n = n = robot.n
-        dyn = self.num.dyn
-        q, dq = robot.q, robot.dq
         self.extra_viscous = None if extra_viscous is None else np.asarray(extra_viscous, dtype=float).reshape(n)
-        # spring and friction terms as (matrix, constant) when linear, else callables
-        subs = {sp.Symbol(k, real=True): v for k, v in self.values.items()}
-        self._spring_lin = _linear_map(dyn.spring, q, subs)
-        if robot.coulomb:
-            self._friction_lin = None
-        else:
-            self._friction_lin = _linear_map(dyn.friction, dq, subs)
-        Fv = np.zeros((n, n)) if self._friction_lin is None else self._friction_lin[0]
-        if self.extra_viscous is not None:
-            Fv = Fv + np.diag(self.extra_viscous)
-        self._Fv = Fv if np.any(Fv) else None
-        self._K = None if self._spring_lin is None or not np.any(self._spring_lin[0]) else self._spring_lin[0]
-        self._k0 = None if self._spring_lin is None or not np.any(self._spring_lin[1]) else self._spring_lin[1]
-        self._spring_fn = None if self._spring_lin is not None or not robot.springs else self.num.spring
-        self._coulomb_fn = self.num.friction if robot.coulomb else None
-        self.has_extra = any(x is not None for x in (self._Fv, self._K, self._k0, self._spring_fn, self._coulomb_fn))
-
-        joint_values = [b.joint.value for b in robot.bodies if b.joint.type != "fixed"]
-        joint_values += [sp.Symbol(c, real=True) for c in robot.motor_inertias]
-        identity = len(joint_values) == n and all(v == s for v, s in zip(joint_values, q))
+        key = (robot.content_hash or repr(robot), tuple(sorted(self.values.items())))
+        cached = _TERMS_CACHE.get(key)
+        if cached is None:
+            cached = _TERMS_CACHE[key] = _prepare_terms(robot, self.num)
+        spring_lin, friction_lin, identity, pin_model = cached
         if backend == "pinocchio" and not identity:
             raise SimulationError(f"{robot.name}: the pinocchio backend needs joint variables equal to the "
                                   "coordinates (in order); use the symbolic backend")
         self.backend = "pinocchio" if (backend != "symbolic" and identity) else "symbolic"
+        self.spring = self._spring_function(spring_lin)
+        self.friction = self._friction_function(friction_lin)
         if self.backend == "pinocchio":
-            import pinocchio as pin
-            twin = PinocchioTwin(robot, self.values)
-            self._pin, self._model, self._data = pin, twin.model, twin.data
-        self._bind()
+            self._bind_pinocchio(pin_model())
+        else:
+            self._bind_symbolic()
 
-    # -------------------------------------------------------------- extras: springs and friction
-    def extra(self, q, dq) -> np.ndarray:
-        """Spring and friction forces k(q) + F_v q' (+ Coulomb) of the robot file and the extra
-        viscous friction: the terms pinocchio does not model."""
-        out = np.zeros(self.n)
-        if self._K is not None:
-            out = out + self._K @ q
-        if self._k0 is not None:
-            out = out + self._k0
-        if self._spring_fn is not None:
-            out = out + self._spring_fn(q)
-        if self._Fv is not None:
-            out = out + self._Fv @ dq
-        if self._coulomb_fn is not None:
-            out = out + self._coulomb_fn(dq)
-            if self.extra_viscous is not None and self._Fv is None:
-                out = out + self.extra_viscous * dq
-        return out
-
-    def _bind(self):
-        """Pick the fastest closures for the hot-path functions."""
+    # -------------------------------------------------------------- springs and friction
+    def _spring_function(self, lin):
+        """k(q) (the gradient of the elastic energy), as a (diagonal) linear map when it is one."""
         n = self.n
-        if self.backend == "symbolic":
-            num = self.num
-            ev = self.extra_viscous
+        if not self.robot.springs:
+            self.has_spring = False
+            return lambda q: np.zeros(n)
+        self.has_spring = True
+        if lin is None:
+            return self.num.spring
+        K, k0 = lin
+        Kd = _diagonal(K)
+        if np.any(k0):
+            return (lambda q: Kd * q + k0) if Kd is not None else (lambda q: K @ q + k0)
+        return (lambda q: Kd * q) if Kd is not None else (lambda q: K @ q)
 
-            def bias(q, dq):
-                b = num.bias(q, dq)
-                return b if ev is None else b + ev * dq
-            self.M = num.M
-            self.bias = bias
-            self.inverse_dynamics = lambda q, dq, a: num.M(q) @ a + bias(q, dq)
-            self.forward_dynamics = lambda q, dq, tau: np.linalg.solve(num.M(q), tau - bias(q, dq))
-            return
-        pin, model, data = self._pin, self._model, self._data
+    def _friction_function(self, lin):
+        """Friction forces of the robot file plus the extra viscous friction of a plant."""
+        n = self.n
+        ev = self.extra_viscous
+        if self.robot.coulomb:
+            self.has_friction = True
+            fr = self.num.friction
+            return fr if ev is None else (lambda dq: fr(dq) + ev * dq)
+        Fv = np.zeros((n, n)) if lin is None else lin[0]
+        if ev is not None:
+            Fv = Fv + np.diag(ev)
+        self.has_friction = bool(np.any(Fv))
+        if not self.has_friction:
+            return lambda dq: np.zeros(n)
+        Fd = _diagonal(Fv)
+        return (lambda dq: Fd * dq) if Fd is not None else (lambda dq: Fv @ dq)
+
+    # -------------------------------------------------------------- hot-path closures
+    def _bind_symbolic(self):
+        num, spring, friction = self.num, self.spring, self.friction
+        ev = self.extra_viscous
+
+        def bias(q, dq):
+            b = num.bias(q, dq)
+            return b if ev is None else b + ev * dq
+        self.M = num.M
+        self.Minv = lambda q: np.linalg.inv(num.M(q))
+        self.bias = bias
+        self.inverse_dynamics = lambda q, dq, a: num.M(q) @ a + bias(q, dq)
+        self.forward_dynamics = lambda q, dq, tau: np.linalg.solve(num.M(q), tau - bias(q, dq))
+        self.gravity = lambda q: num.g(q) + spring(q)
+        self.coriolis_matrix = num.C
+
+    def _bind_pinocchio(self, model):
+        import pinocchio as pin
+        data = model.createData()
         aba, rnea, crba, nle = pin.aba, pin.rnea, pin.crba, pin.nonLinearEffects
+        minv, grav, cor = pin.computeMinverse, pin.computeGeneralizedGravity, pin.computeCoriolisMatrix
+        spring, friction = self.spring, self.friction
         self.M = lambda q: crba(model, data, q)
-        if not self.has_extra:
+        self.Minv = lambda q: minv(model, data, q)
+        self.coriolis_matrix = lambda q, dq: cor(model, data, q, dq)
+        if self.has_spring:
+            self.gravity = lambda q: grav(model, data, q) + spring(q)
+        else:
+            self.gravity = lambda q: grav(model, data, q)
+        if self.has_spring and self.has_friction:
+            extra = lambda q, dq: spring(q) + friction(dq)
+        elif self.has_spring:
+            extra = lambda q, dq: spring(q)
+        elif self.has_friction:
+            extra = lambda q, dq: friction(dq)
+        else:
             self.bias = lambda q, dq: nle(model, data, q, dq)
             self.inverse_dynamics = lambda q, dq, a: rnea(model, data, q, dq, a)
             self.forward_dynamics = lambda q, dq, tau: aba(model, data, q, dq, tau)
             return
-        K, k0, Fv = self._K, self._k0, self._Fv
-        if self._spring_fn is None and self._coulomb_fn is None and k0 is None:
-            # linear extras K q + Fv dq; diagonal matrices (the usual case) as elementwise products
-            Kd = _diagonal(K)
-            Fd = _diagonal(Fv)
-            if Fv is None:
-                extra = (lambda q, dq: Kd * q) if Kd is not None else (lambda q, dq: K @ q)
-            elif K is None:
-                extra = (lambda q, dq: Fd * dq) if Fd is not None else (lambda q, dq: Fv @ dq)
-            elif Kd is not None and Fd is not None:
-                extra = lambda q, dq: Kd * q + Fd * dq
-            else:
-                extra = lambda q, dq: K @ q + Fv @ dq
-        else:
-            extra = self.extra
         self.bias = lambda q, dq: nle(model, data, q, dq) + extra(q, dq)
         self.inverse_dynamics = lambda q, dq, a: rnea(model, data, q, dq, a) + extra(q, dq)
         self.forward_dynamics = lambda q, dq, tau: aba(model, data, q, dq, tau - extra(q, dq))
 
-    # -------------------------------------------------------------- other terms (not in the hot path)
-    def gravity(self, q) -> np.ndarray:
-        """g(q) + k(q): every static (position-only) force, gravity and springs."""
-        return self.num.g(q) + self.num.spring(q)
 
-    def coriolis_matrix(self, q, dq) -> np.ndarray:
-        """C(q, q') from the Christoffel symbols (M' = C + C^T)."""
-        return self.num.C(q, dq)
+_TERMS_CACHE: Dict[tuple, tuple] = {}
 
-    def friction(self, dq) -> np.ndarray:
-        out = self.num.friction(dq)
-        return out if self.extra_viscous is None else out + self.extra_viscous * dq
+
+def _prepare_terms(robot: RobotModel, num: NumericModel):
+    """Parameter-dependent pieces of ModelTerms worth caching: linear spring and friction maps,
+    whether pinocchio's joints are the coordinates, and a factory of the pinocchio model."""
+    dyn = num.dyn
+    q, dq = robot.q, robot.dq
+    subs = {sp.Symbol(k, real=True): v for k, v in num.values.items()}
+    spring_lin = _linear_map(dyn.spring, q, subs) if robot.springs else None
+    friction_lin = _linear_map(dyn.friction, dq, subs) if robot.viscous and not robot.coulomb else None
+    joint_values = [b.joint.value for b in robot.bodies if b.joint.type != "fixed"]
+    joint_values += [sp.Symbol(c, real=True) for c in robot.motor_inertias]
+    identity = len(joint_values) == robot.n and all(v == s for v, s in zip(joint_values, q))
+    holder = {}
+
+    def pin_model():
+        if "model" not in holder:
+            holder["model"] = PinocchioTwin(robot, num.values).model
+        return holder["model"]
+    return spring_lin, friction_lin, identity, pin_model
 
 
 def _diagonal(A: Optional[np.ndarray]) -> Optional[np.ndarray]:
@@ -235,11 +245,10 @@ class TaskPoint:
             Jd_dq = (J * dq).jacobian(q) * dq
             args = [robot.q, robot.parameter_symbols]
             fns = (sp.lambdify(args, pos, "numpy", cse=True), sp.lambdify(args, J, "numpy", cse=True),
-                   sp.lambdify([robot.q, robot.dq, robot.parameter_symbols], Jd_dq, "numpy", cse=True))
+                   sp.lambdify([robot.q, robot.dq, robot.parameter_symbols], [pos, J, Jd_dq], "numpy", cse=True))
             _POINT_CACHE[key] = fns
-        self._fp, self._fJ, self._fJd = fns
-        n = robot.n
-        self._shape = (self.dim, n)
+        self._fp, self._fJ, self._fall = fns
+        self._shape = (self.dim, robot.n)
 
     def position(self, q) -> np.ndarray:
         return np.asarray(self._fp(q, self.p), dtype=float).reshape(self.dim)
@@ -247,9 +256,11 @@ class TaskPoint:
     def jacobian(self, q) -> np.ndarray:
         return np.asarray(self._fJ(q, self.p), dtype=float).reshape(self._shape)
 
-    def jdot_dq(self, q, dq) -> np.ndarray:
-        """J'(q, q') q' (the velocity-product part of the point's acceleration)."""
-        return np.asarray(self._fJd(q, dq, self.p), dtype=float).reshape(self.dim)
+    def kinematics(self, q, dq) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(p, J, J' q') in one evaluation; J' q' is the velocity-product part of the acceleration."""
+        p, J, Jd = self._fall(q, dq, self.p)
+        return (np.asarray(p, dtype=float).reshape(self.dim), np.asarray(J, dtype=float).reshape(self._shape),
+                np.asarray(Jd, dtype=float).reshape(self.dim))
 
 
 def resolve_point(robot: RobotModel, point) -> Tuple[Optional[str], Tuple, str]:
@@ -380,20 +391,32 @@ class _Plant:
         return tau
 
     def _accel_contacts(self, q, dq, tau, t=0.0):
-        tau = tau + self._external(t, q, dq)
+        ext = self._external(t, q, dq) if self.soft else None
+        if ext is not None:
+            tau = tau + ext
         if not self.rigid:
             return self.terms.forward_dynamics(q, dq, tau)
-        M = self.terms.M(q)
-        rhs = tau - self.terms.bias(q, dq)
-        A = np.array([c.n @ c.point.jacobian(q) for c in self.rigid])
+        # M q'' = tau - bias + A^T lambda with A q'' = b (the constraint's acceleration, stabilized)
+        Minv = self.terms.Minv(q)
+        free = Minv @ (tau - self.terms.bias(q, dq))
         w = self.BAUMGARTE
-        b = np.array([-(c.n @ c.point.jdot_dq(q, dq)) - 2 * w * (A[i] @ dq)
-                      - w * w * (c.n @ c.point.position(q) - c.offset) for i, c in enumerate(self.rigid)])
-        Minv_At = np.linalg.solve(M, A.T)
-        Minv_rhs = np.linalg.solve(M, rhs)
-        lam = np.linalg.solve(A @ Minv_At, b - A @ Minv_rhs)
+        rows, b = [], []
+        for c in self.rigid:
+            p, J, jd = c.point.kinematics(q, dq)
+            a = c.n @ J
+            rows.append(a)
+            b.append(-(c.n @ jd) - 2 * w * (a @ dq) - w * w * (c.n @ p - c.offset))
+        if len(rows) == 1:        # one contact: a scalar equation
+            a = rows[0]
+            ma = Minv @ a
+            lam = (b[0] - a @ free) / (a @ ma)
+            self.last_lambda = np.array([lam])
+            return free + ma * lam
+        A = np.array(rows)
+        MA = Minv @ A.T
+        lam = np.linalg.solve(A @ MA, np.array(b) - A @ free)
         self.last_lambda = lam
-        return Minv_rhs + Minv_At @ lam
+        return free + MA @ lam
 
     def forces(self, t, q, dq, tau) -> List[np.ndarray]:
         """Contact forces on the robot (task coordinates), one per contact, at a state."""
