@@ -232,9 +232,13 @@ def determinant_condition(J: sp.Matrix) -> sp.Expr:
     J = sp.Matrix(J)
     D = J.det(method="berkowitz") if J.rows == J.cols else (J * J.T).det(method="berkowitz")
     try:
-        return sp.factor(TrigPoly.from_expr(sp.expand(D)).to_expr())
+        canonical = sp.factor(TrigPoly.from_expr(sp.expand(D)).to_expr())
     except Exception:
         return sp.simplify(D)
+    forms = [canonical]
+    if sp.count_ops(canonical) < 60:
+        forms.append(sp.factor(sp.expand_trig(canonical)))
+    return min(forms, key=sp.count_ops)
 
 
 def column_minors(J) -> Dict[Tuple[int, ...], float]:

@@ -10,13 +10,14 @@ weighted-pseudoinverse identities. Values follow the conventions of ``kinematic`
   ``fixed`` ({joint index from 1: value}), ``bounds`` ({max} or {lower, upper}: smallest task
   scaling keeping the null-space term), ``check`` ({jacobian name: task vector}: errors on other
   tasks), ``q``.
-  Answers: ``<name>``, ``<name>_error``, ``<name>_norm``, ``<name>_pinv``, ``<name>_task``,
+  Answers: ``<name>``, ``<name>_error``, ``<name>_error_norm``, ``<name>_norm``, ``<name>_pinv``, ``<name>_task``,
   ``<name>_null``, ``<name>_projector``, ``<name>_gradient``, ``<name>_cost`` (1/2 q'^T W q'),
   ``<name>_scale``/``<name>_unscaled`` (with bounds), ``<name>_error_<J>`` and
   ``<name>_error_<J>_norm`` (checks).
 ``task_priority``: ``tasks`` [{jacobian, task}, ...] by decreasing priority. Answers ``<name>``,
   ``<name>_error_<k>`` (k = 1, 2, ...), ``<name>_error`` (stacked), ``<name>_error_norm``,
-  ``<name>_projected_<k>`` (J_k P_(k-1)), ``<name>_algorithmic_singularity`` (list of booleans).
+  ``<name>_projected_<k>`` (J_k P_(k-1)), ``<name>_algorithmic_singularities`` (the levels k where
+  J_k P_(k-1) has lower rank than J_k).
 ``reduced_gradient``: ``jacobian``, ``task``, ``gradient`` ({objective}), ``alpha``, ``maximize``
   (default true). Answers ``<name>``, ``<name>_minors``, ``<name>_gradient_b``, ``<name>_grad``.
 ``sns``: ``jacobian``, ``task``, ``bounds``, ``level`` (velocity | acceleration), ``drift``
@@ -114,6 +115,7 @@ def pseudoinverse_task(ctx, spec):
     ctx.steps.extend(res.steps)
     ctx.answer(name, res.dq)
     ctx.answer(f"{name}_error", res.error)
+    ctx.answer(f"{name}_error_norm", float(np.linalg.norm(res.error)))
     ctx.answer(f"{name}_norm", res.norm)
     ctx.answer(f"{name}_pinv", res.inverse)
     ctx.answer(f"{name}_task", res.dq_task)
@@ -162,7 +164,7 @@ def task_priority_task(ctx, spec):
     e = np.concatenate(errors)
     ctx.answer(f"{name}_error", e)
     ctx.answer(f"{name}_error_norm", float(np.linalg.norm(e)))
-    ctx.answer(f"{name}_algorithmic_singularity", [lev.algorithmic_singularity for lev in tp.levels])
+    ctx.answer(f"{name}_algorithmic_singularities", [k for k, lev in enumerate(tp.levels, 1) if lev.algorithmic_singularity])
 
 
 @task("reduced_gradient")
