@@ -1,0 +1,860 @@
+"""Analysis of a robot's model: equilibria, gravity balancing, factorizations of the Coriolis
+terms, changes of coordinates, Cartesian quantities of a point and numeric evaluations. Everything
+is computed from the robot file through app.core.dynamics; an exercise only says what to compute.
+
+Every task accepts ``suffix`` (appended to its answer names, for two uses in one exercise) and
+``substitute`` (parameter -> expression, applied to the model first, e.g. ``{alpha: 0}``).
+
+Task kinds (options -> answers):
+
+- ``equilibria``: all solutions of g(q) + k(q) = 0 in closed form, angles in (-pi, pi]; each
+  coefficient multiplying a trigonometric function is assumed nonzero (generic parameters).
+  Options: ``springs`` (include spring forces, default true). Answers: ``equilibria`` (one row per
+  configuration, sorted by their values at the parameters' numbers), ``equilibria_count``.
+- ``gravity_balance``: parameter values that make g(q) = 0 for every q. Options: ``solve_for``
+  (parameters to choose, e.g. CoM distances), ``zero`` (parameters set to 0 while balancing,
+  e.g. a payload). Answers: ``balance`` (values in the order of ``solve_for``),
+  ``balance_<name>`` (each value), ``g_balanced`` (g with those values, ``zero`` not applied).
+- ``factorizations``: the Christoffel factorization S and a second one, S', that puts each product
+  q'_j q'_k (j <= k) in column k; whether M' - 2S is skew-symmetric for each. Answers: ``S``,
+  ``S_alt``, ``Mdot``, ``Mdot_minus_2S``, ``Mdot_minus_2S_alt``, ``skew_S``, ``skew_S_alt``,
+  ``momentum`` (p = M q'), ``ST_dq`` (S^T q', the term of the momentum-based residual).
+- ``coordinate_map``: new coordinates theta with q = f(theta) (e.g. relative angles from absolute
+  ones). Options: ``map`` (old coordinate -> expression of the new symbols), ``new`` (names of
+  the new coordinates, in order). Answers: ``T`` (dq/dtheta), ``M_new`` (T^T M(f(theta)) T),
+  ``g_new`` (T^T g), ``force_map`` (T^T: tau_theta = T^T tau_q).
+- ``point_kinematics``: a point of the robot (a named point, or ``{body, at}`` whose position may
+  hold free symbols such as a contact abscissa). Options: ``point``, ``components`` (default
+  [0, 1]: x, y), ``force`` (a force at the point, list of expressions), ``name`` (answer label,
+  default the point's name or "point"). Answers: ``p_<name>``, ``J_<name>``, ``minors_<name>``
+  (determinants of J without column k, when J has one column more than rows), ``tau_<name>``
+  (J^T F).
+- ``cartesian_inertia``: M_p = J^-T M J^-1 of a point with a square Jacobian. Options: ``point``,
+  ``components``, ``at`` (configuration for the numeric values, parameters from ``given``).
+  Answers: ``J``, ``det_J``, ``M_p``, ``M_at``, ``M_p_at``, ``M_p_inv_at``.
+- ``rest_acceleration``: accelerations from rest, q'' = M^-1 (u - g), and of a point, p'' = J q''.
+  Options: ``inputs`` (names of the generalized forces, one per coordinate; default tau1..tauN),
+  ``point`` (optional), ``components``. Answers: ``ddq_rest``, ``pdd_rest``, ``pdd_rest_norm2``.
+- ``gravity_gradient_bound``: alpha = max over q of ||dg/dq|| (spectral norm), written as a
+  parameter factor times the maximum of the rest at the parameters' numbers. Options:
+  ``use_balance`` (apply the values of a preceding ``gravity_balance``), ``kp_min`` (a gain, to
+  find the largest value of ``solve_for`` with alpha < kp_min). Answers: ``dg_dq``, ``alpha``,
+  ``alpha_at`` (a maximizing configuration), ``<solve_for>_max``.
+- ``evaluate``: numbers at a state, parameters from ``given``. Options: ``at`` (coordinate ->
+  value), ``velocity`` (coordinate -> value), ``acceleration`` (coordinate -> value). Answers:
+  ``M_at``, ``g_at``, ``c_at``, ``tau_at`` (M q'' + c + g + k + friction, when ``acceleration``
+  is given), ``T_at`` (kinetic energy).
+- ``kinetic_energy_decay``: the torque tau = -(gamma/2) M(q) q' that gives T' = q'^T tau = -gamma T
+  without potential forces. Options: ``gamma`` (a number or a symbol), ``at``, ``velocity``.
+  Answers: ``tau_decay``, ``tau_decay_at``.
+
+>>> from app.core.exercise import parse_exercise, solve
+>>> ex = parse_exercise({"id": "x", "robot": "planar_2r", "question": "?",
+...                      "tasks": [{"kind": "equilibria"}]})
+>>> solve(ex).answers["equilibria"]
+Matrix([
+[-pi/2,  0],
+[-pi/2, pi],
+[ pi/2,  0],
+[ pi/2, pi]])
+"""
+from __future__ import annotations
+
+import itertools
+import math
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+import sympy as sp
+
+from ..dynamics import natural_angles, pretty
+from ..exercise import ExerciseError
+from ..expressions import parse_number, symbol
+from ..kinematics import Kinematics
+from ..steps import to_latex
+from ..trig import TrigPoly
+from . import task
+
+
+# ====================================================================== shared helpers
+class _Analysis:
+    """The robot's model with the exercise's substitutions, printers and simplifiers."""
+
+    def __init__(self, ctx, spec, kind: str):
+        self.ctx, self.spec, self.kind = ctx, spec, kind
+        self.robot = ctx.robot
+        self.dyn = ctx.dynamics()
+        self.coords = list(self.robot.coordinates)
+        self.q = sp.Matrix(self.robot.q)
+        self.dq = sp.Matrix(self.robot.dq)
+        self.ddq = sp.Matrix(self.robot.ddq)
+        self.kin = Kinematics(self.robot)
+        self.angles = natural_angles(self.kin)
+        self.suffix = str(spec.get("suffix", ""))
+        self.subs = self.mapping(spec.get("substitute") or {}, "substitute")
+        self.M = self.apply(self.dyn.M)
+        self.g = self.apply(self.dyn.g)
+        self.k = self.apply(self.dyn.spring)
+        self.c = self.apply(self.dyn.c)
+        self.C = self.apply(self.dyn.C)
+
+    # ---------------------------------------------------------------- input
+    def where(self, option: str) -> str:
+        return f"{self.ctx.exercise.source or self.ctx.exercise.id}: {self.kind}.{option}"
+
+    def fail(self, option: str, what: str) -> ExerciseError:
+        return ExerciseError(f"{self.where(option)}: {what}")
+
+    def expr(self, value, option: str) -> sp.Expr:
+        return self.ctx.expr(value, f"{self.kind}.{option}")
+
+    def number(self, value, option: str) -> float:
+        try:
+            return parse_number(value, self.where(option))
+        except Exception as exc:   # ExpressionError is a UserError: keep its message
+            raise ExerciseError(str(exc)) from None
+
+    def mapping(self, raw, option: str) -> Dict[sp.Symbol, sp.Expr]:
+        if not isinstance(raw, dict):
+            raise self.fail(option, f"expected a mapping name: expression, got {raw!r}")
+        return {symbol(str(k)): self.expr(v, f"{option}.{k}") for k, v in raw.items()}
+
+    def configuration(self, option: str, prefix: str = "") -> Dict[sp.Symbol, float]:
+        raw = self.spec.get(option) or {}
+        if not isinstance(raw, dict):
+            raise self.fail(option, "expected a mapping coordinate: value")
+        out = {}
+        for name, value in raw.items():
+            name = str(name)
+            if name not in self.coords:
+                raise self.fail(f"{option}.{name}", f"not a coordinate of {self.robot.name} "
+                                f"(coordinates: {', '.join(self.coords)})")
+            out[symbol(prefix + name)] = self.number(value, f"{option}.{name}")
+        return out
+
+    def parameter_values(self) -> Dict[sp.Symbol, float]:
+        values = {}
+        for name, p in self.robot.parameters.items():
+            value = self.ctx.given.get(name, p.value)
+            values[p.symbol] = self.number(value, f"given.{name}") if not isinstance(value, (int, float)) else float(value)
+        return values
+
+    def point(self, option: str = "point") -> Tuple[Optional[str], sp.Matrix, str]:
+        """(body, position in the body, label) of a named point or of {body, at}."""
+        raw = self.spec.get(option)
+        if raw is None:
+            raise self.fail(option, "required: a point name or {body, at}")
+        if isinstance(raw, str):
+            if raw not in self.robot.points:
+                raise self.fail(option, f"unknown point '{raw}' (points of {self.robot.name}: "
+                                f"{', '.join(self.robot.points) or 'none'})")
+            pt = self.robot.points[raw]
+            return pt.body, pt.position, raw
+        if not isinstance(raw, dict) or "body" not in raw:
+            raise self.fail(option, "expected a point name or {body: NAME, at: [x, y, z]}")
+        body = raw["body"]
+        if body != "base" and body not in [b.name for b in self.robot.bodies]:
+            raise self.fail(f"{option}.body", f"unknown body '{body}'")
+        at = raw.get("at", [0, 0, 0])
+        if not isinstance(at, list) or len(at) != 3:
+            raise self.fail(f"{option}.at", "expected [x, y, z]")
+        local = sp.Matrix([self.expr(v, f"{option}.at") for v in at])
+        return (None if body == "base" else body), local, str(raw.get("name", "point"))
+
+    def components(self) -> List[int]:
+        comp = self.spec.get("components", [0, 1])
+        if not isinstance(comp, list) or not comp or any(c not in (0, 1, 2) for c in comp):
+            raise self.fail("components", "expected a list of 0 (x), 1 (y), 2 (z)")
+        return comp
+
+    # ---------------------------------------------------------------- model
+    def apply(self, obj):
+        if not self.subs:
+            return obj
+        return obj.subs(self.subs) if isinstance(obj, sp.MatrixBase) else sp.sympify(obj).subs(self.subs)
+
+    def tidy(self, expr) -> sp.Expr:
+        return tidy(expr, self.angles)
+
+    def tidy_matrix(self, mat) -> sp.Matrix:
+        return sp.Matrix(mat).applyfunc(self.tidy)
+
+    def L(self, expr) -> str:
+        return to_latex(expr, self.coords)
+
+    def answer(self, name: str, value) -> None:
+        self.ctx.answer(name + self.suffix, value)
+
+    def angle_coordinates(self) -> List[sp.Symbol]:
+        """Coordinates that enter a revolute joint (they are angles)."""
+        out = set()
+        for body in self.robot.bodies:
+            if body.joint.type == "revolute":
+                out |= body.joint.value.free_symbols & set(self.q)
+        return [s for s in self.q if s in out]
+
+    def bodies_moved_by(self, coordinate: sp.Symbol) -> List[str]:
+        names = []
+        for body in self.robot.bodies:
+            chain = self.robot.chain(body.name)
+            if any(coordinate in b.joint.value.free_symbols for b in chain):
+                names.append(body.name)
+        return names
+
+
+def tidy(expr, angles: Sequence = ()) -> sp.Expr:
+    """Compact form of a (possibly rational) trigonometric expression through the exact canonical
+    form of its numerator and denominator.
+
+    >>> q = symbol("q")
+    >>> tidy((sp.sin(q)**2 + sp.cos(q)**2) * symbol("m") / 2)
+    m/2
+    """
+    expr = sp.sympify(expr)
+    if not expr.free_symbols:
+        return sp.nsimplify(expr) if expr.is_Float else expr
+    num, den = sp.fraction(sp.cancel(sp.together(expr)))
+    num_tp = TrigPoly.from_expr(sp.expand(num)).expand()
+    den_tp = TrigPoly.from_expr(sp.expand(den)).expand()
+    if all(not freq for (freq, _kind) in den_tp.terms):
+        d = den_tp.to_expr()
+        num_tp = TrigPoly({k: sp.factor(sp.cancel(c / d)) for k, c in num_tp.terms.items()})
+        return pretty(num_tp, angles)
+    return pretty(num_tp, angles) / pretty(den_tp, angles)
+
+
+def _is_zero(expr) -> bool:
+    expr = sp.sympify(expr)
+    num, _den = sp.fraction(sp.cancel(sp.together(expr)))
+    return TrigPoly.from_expr(sp.expand(num)).is_zero()
+
+
+def _wrap_angle(value):
+    """A rational multiple of pi brought into (-pi, pi]; other values unchanged.
+
+    >>> _wrap_angle(3*sp.pi/2), _wrap_angle(-sp.pi), _wrap_angle(sp.Symbol("x"))
+    (-pi/2, pi, x)
+    """
+    r = sp.nsimplify(value / sp.pi) if value.is_number else None
+    if r is None or not r.is_Rational:
+        return value
+    r = r - 2 * sp.floor((r + 1) / 2)        # into [-1, 1)
+    if r == -1:
+        r = sp.Integer(1)
+    return r * sp.pi
+
+
+# ====================================================================== equilibria
+def _primitive(freqs: List[Dict[sp.Symbol, int]]) -> Optional[Tuple[Dict[sp.Symbol, int], List[int]]]:
+    """A primitive frequency v with every frequency an integer multiple of it, and the multiples."""
+    base = freqs[0]
+    g = 0
+    for n in base.values():
+        g = math.gcd(g, abs(n))
+    v = {s: n // g for s, n in base.items()}
+    first = next(iter(sorted(v, key=lambda s: s.name)))
+    if v[first] < 0:
+        v = {s: -n for s, n in v.items()}
+    multiples = []
+    for f in freqs:
+        if set(f) != set(v):
+            return None
+        k = sp.Rational(f[first], v[first])
+        if not k.is_Integer or any(f[s] != k * v[s] for s in v):
+            return None
+        multiples.append(int(k))
+    return v, multiples
+
+
+def _solve_angle(tp: TrigPoly, t: sp.Symbol) -> List[sp.Expr]:
+    """Solutions in (-pi, pi] of a trigonometric polynomial of one angle t (A cos t + B sin t = 0
+    in closed form, anything else through sympy)."""
+    A = B = C0 = sp.Integer(0)
+    simple = True
+    for (freq, kind), coeff in tp.terms.items():
+        if not freq:
+            C0 += coeff
+        elif dict(freq).get(t) == 1 and len(freq) == 1:
+            if kind == "c":
+                A += coeff
+            else:
+                B += coeff
+        else:
+            simple = False
+    if simple and C0 == 0:
+        if B == 0:
+            sols = [-sp.pi / 2, sp.pi / 2]
+        elif A == 0:
+            sols = [sp.Integer(0), sp.pi]
+        else:
+            t0 = sp.atan(sp.cancel(-A / B))
+            sols = [t0, t0 + sp.pi]
+    else:
+        sols = sp.solve(tp.to_expr(), t)
+        sols = [s for s in sols if s.is_real is not False]
+    out = []
+    for s in sols:
+        s = _wrap_angle(sp.simplify(s))
+        if s not in out:
+            out.append(s)
+    return out
+
+
+class _EquilibriumSolver:
+    """Closed-form solutions of a system of trigonometric-polynomial equations in the coordinates.
+
+    At each stage it takes the equation with the fewest unknowns that either depends on one
+    integer combination of angles only (solved for that combination, which fixes the last
+    coordinate in it) or is a polynomial in a single coordinate; otherwise it splits a product."""
+
+    def __init__(self, unknowns: Sequence[sp.Symbol], angles: Sequence[sp.Symbol], log):
+        self.unknowns = list(unknowns)
+        self.angles = set(angles)
+        self.log = log          # callback(kind, equation, variable, values)
+        self.counter = itertools.count()
+
+    def solve(self, equations: List[Tuple[int, sp.Expr]], assigned: Dict[sp.Symbol, sp.Expr]) -> List[Dict]:
+        """Solutions of the (row index, expression) equations given the values ``assigned``."""
+        eqs = []
+        for row, e in equations:
+            tp = TrigPoly.from_expr(sp.expand(e)).expand()
+            if tp.is_zero():
+                continue
+            if not self._unknowns_in(tp):
+                return []          # a nonzero constant: no solution on this branch
+            eqs.append((row, tp))
+        if not eqs:
+            return [assigned]
+        options = []
+        for idx, (_row, tp) in enumerate(eqs):
+            kind = self._classify(tp)
+            if kind is not None:
+                options.append((len(self._unknowns_in(tp)), 0 if kind[0] == "angle" else 1, idx, kind))
+        if not options:
+            for idx, (row, tp) in enumerate(eqs):
+                factors = self._factors(tp)
+                if len(factors) > 1:
+                    rest = [(r, e.to_expr()) for j, (r, e) in enumerate(eqs) if j != idx]
+                    out = []
+                    self.log("factor", row, tp.to_expr(), None, factors)
+                    for f in factors:
+                        out += self.solve([(row, f)] + rest, dict(assigned))
+                    return out
+            raise ExerciseError("equilibria: the equations " + ", ".join(str(e.to_expr()) for _r, e in eqs)
+                                + " have no closed-form solution the engine can find")
+        _n, _pref, idx, kind = min(options, key=lambda o: o[:3])
+        row, tp = eqs[idx]
+        rest = [(r, e.to_expr()) for j, (r, e) in enumerate(eqs) if j != idx]
+        out = []
+        if kind[0] == "angle":
+            v, multiples = kind[1], kind[2]
+            t = sp.Dummy(f"t{next(self.counter)}")
+            shifted = TrigPoly({(((t, m),) if freq else (), k): c
+                                for ((freq, k), c), m in zip(tp.terms.items(), multiples)})
+            values = _solve_angle(shifted, t)
+            combo = sp.Add(*[n * s for s, n in v.items()])
+            target = max((s for s in v if abs(v[s]) == 1), key=self.unknowns.index)
+            self.log("angle", row, tp.to_expr(), combo, values)
+            for val in values:
+                expr = sp.expand((val - (combo - v[target] * target)) / v[target])
+                new = {s: sp.expand(e.subs(target, expr)) for s, e in assigned.items()}
+                new[target] = expr
+                out += self.solve([(r, sp.expand(e.subs(target, expr))) for r, e in rest], new)
+        else:
+            var = kind[1]
+            values = [s for s in sp.solve(tp.to_expr(), var) if s.is_real is not False]
+            self.log("poly", row, tp.to_expr(), var, values)
+            for val in values:
+                new = {s: sp.expand(e.subs(var, val)) for s, e in assigned.items()}
+                new[var] = val
+                out += self.solve([(r, sp.expand(e.subs(var, val))) for r, e in rest], new)
+        return out
+
+    def _unknowns_in(self, tp: TrigPoly) -> set:
+        out = set()
+        for (freq, _k), c in tp.terms.items():
+            out |= {s for s, _ in freq} | (c.free_symbols & set(self.unknowns))
+        return out & set(self.unknowns)
+
+    def _classify(self, tp: TrigPoly):
+        in_coeffs = set()
+        freqs = []
+        for (freq, _k), c in tp.terms.items():
+            in_coeffs |= c.free_symbols & set(self.unknowns)
+            if freq:
+                freqs.append(dict(freq))
+        if not in_coeffs and freqs:
+            prim = _primitive([f for f in freqs])
+            if prim is not None and any(abs(n) == 1 for n in prim[0].values()):
+                multiples = []
+                it = iter(prim[1])
+                for (freq, _k) in tp.terms:
+                    multiples.append(next(it) if freq else 0)
+                return ("angle", prim[0], multiples)
+        if not freqs and len(in_coeffs) == 1:
+            return ("poly", next(iter(in_coeffs)))
+        return None
+
+    def _factors(self, tp: TrigPoly) -> List[sp.Expr]:
+        factored = sp.factor(tp.to_expr())
+        parts = [f for f in sp.Mul.make_args(factored) if f.free_symbols & set(self.unknowns)]
+        parts = [f.base if f.is_Pow and f.exp.is_Integer and f.exp > 0 else f for f in parts]
+        return parts
+
+
+@task("equilibria")
+def equilibria_task(ctx, spec):
+    """Configurations with g(q) + k(q) = 0 (see the module docstring)."""
+    a = _Analysis(ctx, spec, "equilibria")
+    rhs = a.g + (a.k if spec.get("springs", True) else sp.zeros(len(a.coords), 1))
+    a.ctx.step("Equilibrium condition", rf"g(q) {'+ k(q) ' if a.robot.springs and spec.get('springs', True) else ''}= {a.L(rhs)} = 0",
+               "At rest and without inputs the robot stays still exactly where the potential forces vanish.",
+               bodies=[b.name for b in a.robot.bodies])
+    def log(kind, row, equation, variable, values):
+        vals = ", ".join(a.L(v) for v in values)
+        if kind == "angle":
+            coords = [s for s in a.q if s in variable.free_symbols]
+            bodies = [b.name for b in a.robot.bodies if any(b.name in a.bodies_moved_by(s) for s in coords)]
+            a.ctx.step(f"Row {row + 1}: solve for {variable}", rf"{a.L(equation)} = 0 \;\Rightarrow\; {a.L(variable)} \in \{{{vals}\}}",
+                       "This equation depends on one combination of angles only (its coefficient is assumed nonzero).",
+                       bodies=bodies)
+        elif kind == "poly":
+            a.ctx.step(f"Row {row + 1}: solve for {variable}", rf"{a.L(equation)} = 0 \;\Rightarrow\; {a.L(variable)} \in \{{{vals}\}}",
+                       "With the angles fixed, this equation is a polynomial in one coordinate.",
+                       bodies=a.bodies_moved_by(variable))
+        else:
+            a.ctx.step(f"Row {row + 1}: split a product", rf"{a.L(equation)} = 0 \;\Rightarrow\; "
+                       + r"\;\text{or}\; ".join(f"{a.L(f)} = 0" for f in values),
+                       "A product vanishes when one of its factors does: each factor is a branch.")
+
+    solver = _EquilibriumSolver(list(a.q), a.angle_coordinates(), log)
+    branches = solver.solve(list(enumerate(rhs)), {})
+    rows = []
+    for sol in branches:
+        row = []
+        for s in a.q:
+            value = sol.get(s, s)
+            for _ in range(len(a.q)):
+                value = sp.expand(value.subs(sol))
+            value = _wrap_angle(value) if s in solver.angles else sp.simplify(value)
+            row.append(value)
+        if row not in rows:
+            rows.append(row)
+    values = a.parameter_values()
+
+    def key(row):
+        out = []
+        for e in row:
+            try:
+                out.append(round(float(e.subs(values)), 9))
+            except TypeError:
+                out.append(0.0)
+        return out
+
+    rows.sort(key=key)
+    table = sp.Matrix(rows) if rows else sp.zeros(0, len(a.coords))
+    a.ctx.step("Equilibria", rf"q_e \in {a.L(table)}" if rows else r"\text{none}",
+               f"{len(rows)} equilibrium configuration(s), one per row "
+               f"({', '.join(a.coords)}); coordinates that do not appear stay free.",
+               bodies=[b.name for b in a.robot.bodies])
+    a.answer("equilibria", table)
+    a.answer("equilibria_count", len(rows))
+
+
+# ====================================================================== gravity balancing
+def _coefficient_conditions(vector, variables) -> List[sp.Expr]:
+    """Every coefficient (of each trigonometric function and each monomial of ``variables``) of the
+    entries of a vector; they all vanish exactly when the vector is zero for every q."""
+    conds = []
+    for e in vector:
+        tp = TrigPoly.from_expr(sp.expand(e)).expand()
+        for coeff in tp.terms.values():
+            poly = sp.Poly(coeff, *variables) if variables else None
+            for c in (poly.coeffs() if poly is not None else [coeff]):
+                c = sp.factor(c)
+                if c != 0 and c not in conds:
+                    conds.append(c)
+    return conds
+
+
+@task("gravity_balance")
+def gravity_balance_task(ctx, spec):
+    """Parameters that cancel gravity for every configuration (see the module docstring)."""
+    a = _Analysis(ctx, spec, "gravity_balance")
+    names = spec.get("solve_for")
+    if not isinstance(names, list) or not names:
+        raise a.fail("solve_for", "expected a list of parameters to choose (e.g. CoM distances)")
+    for n in names:
+        if n not in a.robot.parameters:
+            raise a.fail("solve_for", f"'{n}' is not a parameter of {a.robot.name}")
+    unknowns = [symbol(n) for n in names]
+    zero = {symbol(str(n)): 0 for n in (spec.get("zero") or [])}
+    for s in zero:
+        if s.name not in a.robot.parameters:
+            raise a.fail("zero", f"'{s.name}' is not a parameter of {a.robot.name}")
+    g = a.g.subs(zero) if zero else a.g
+    conds = _coefficient_conditions(g, list(a.q))
+    a.ctx.step("Gravity as a combination of functions of q",
+               rf"g(q) = {a.L(g)}" + (rf"\quad ({', '.join(a.L(s) + ' = 0' for s in zero)})" if zero else ""),
+               "g(q) vanishes for every q exactly when every coefficient of each independent function of q vanishes.",
+               bodies=[b.name for b in a.robot.bodies])
+    a.ctx.step("Balancing conditions", r"\begin{cases}" + r"\\ ".join(f"{a.L(c)} = 0" for c in conds) + r"\end{cases}",
+               f"Solve them for {', '.join(names)}.")
+    sols = sp.solve(conds, unknowns, dict=True)
+    if not sols:
+        raise ExerciseError(f"{a.where('solve_for')}: gravity cannot be balanced by choosing {', '.join(names)}")
+    sol = sols[0]
+    free = [s.name for s in unknowns if s not in sol]
+    if free:
+        raise ExerciseError(f"{a.where('solve_for')}: the conditions do not fix {', '.join(free)}")
+    values = [sp.factor(sol[s]) for s in unknowns]
+    a.ctx.step("Balanced parameters", r",\quad ".join(f"{a.L(s)} = {a.L(v)}" for s, v in zip(unknowns, values)),
+               "Negative CoM distances mean counter-masses beyond the joint axis.",
+               bodies=[b.name for b in a.robot.bodies])
+    g_bal = a.tidy_matrix(a.g.subs(dict(zip(unknowns, values))))
+    if zero:
+        a.ctx.step("Gravity of the balanced robot", rf"g(q) = {a.L(g_bal)}",
+                   "What remains once the links are balanced: only the terms of "
+                   + ", ".join(s.name for s in zero) + ".")
+    a.answer("balance", sp.Matrix(values))
+    for s, v in zip(unknowns, values):
+        a.answer(f"balance_{s.name}", v)
+    a.answer("g_balanced", g_bal)
+    ctx.balance = dict(zip(unknowns, values))
+
+
+# ====================================================================== factorizations
+@task("factorizations")
+def factorizations_task(ctx, spec):
+    """Christoffel and non-skew factorizations of c(q, q') (see the module docstring)."""
+    a = _Analysis(ctx, spec, "factorizations")
+    n = len(a.coords)
+    Ck = [a.apply(Ci) for Ci in a.dyn.christoffel]
+    S = a.tidy_matrix(a.C)
+    S_alt = sp.zeros(n, n)
+    for i in range(n):
+        for k in range(n):
+            S_alt[i, k] = sum(((2 if j < k else 1) * Ck[i][j, k] * a.dq[j] for j in range(k + 1)), sp.Integer(0))
+    S_alt = a.tidy_matrix(S_alt)
+    Mdot = a.tidy_matrix(sum((a.M.diff(a.q[k]) * a.dq[k] for k in range(n)), sp.zeros(n, n)))
+    N1 = a.tidy_matrix(Mdot - 2 * S)
+    N2 = a.tidy_matrix(Mdot - 2 * S_alt)
+    skew1 = all(_is_zero(N1[i, j] + N1[j, i]) for i in range(n) for j in range(i, n))
+    skew2 = all(_is_zero(N2[i, j] + N2[j, i]) for i in range(n) for j in range(i, n))
+    assert all(_is_zero(e) for e in S_alt * a.dq - a.c), "internal error: S' q' != c"
+    p = a.tidy_matrix(a.M * a.dq)
+    ST = a.tidy_matrix(S.T * a.dq)
+    bodies = [b.name for b in a.robot.bodies]
+    a.ctx.step("Christoffel factorization", rf"S(q,\dot q) = \begin{{pmatrix}} \dot q^T C_1 \\ \vdots \\ \dot q^T C_n \end{{pmatrix}} = {a.L(S)}",
+               "Row i is q'^T C_i with the Christoffel matrices C_i.", bodies=bodies)
+    a.ctx.step("Skew-symmetry check", rf"\dot M - 2S = {a.L(N1)}",
+               "Skew-symmetric: q'^T (M' - 2S) q' = 0, the property used by passivity-based laws." if skew1
+               else "Not skew-symmetric.")
+    a.ctx.step("Another factorization", rf"S'(q,\dot q) = {a.L(S_alt)},\quad S'\dot q = c(q,\dot q)",
+               "Each product q'_j q'_k (j <= k) of c_i is written as (coefficient times q'_j) times q'_k, in column k.")
+    a.ctx.step("Skew-symmetry check of S'", rf"\dot M - 2S' = {a.L(N2)}",
+               "Also skew-symmetric (here the two factorizations give the same property)." if skew2
+               else "Not skew-symmetric: S' also gives c = S' q', but M' - 2S' is not skew.")
+    a.ctx.step("Generalized momentum", rf"p = M(q)\dot q = {a.L(p)},\quad S^T(q,\dot q)\dot q = {a.L(ST)}",
+               "The momentum-based residual uses p' = tau + S^T q' - g - friction: no accelerations needed.",
+               bodies=bodies)
+    a.answer("S", S)
+    a.answer("S_alt", S_alt)
+    a.answer("Mdot", Mdot)
+    a.answer("Mdot_minus_2S", N1)
+    a.answer("Mdot_minus_2S_alt", N2)
+    a.answer("skew_S", skew1)
+    a.answer("skew_S_alt", skew2)
+    a.answer("momentum", p)
+    a.answer("ST_dq", ST)
+
+
+# ====================================================================== changes of coordinates
+@task("coordinate_map")
+def coordinate_map_task(ctx, spec):
+    """Model in new coordinates theta with q = f(theta) (see the module docstring)."""
+    a = _Analysis(ctx, spec, "coordinate_map")
+    new = spec.get("new")
+    if not isinstance(new, list) or len(new) != len(a.coords) or not all(isinstance(x, str) and x.isidentifier() for x in new):
+        raise a.fail("new", f"expected a list of {len(a.coords)} new coordinate names")
+    theta = [symbol(x) for x in new]
+    raw = spec.get("map")
+    if not isinstance(raw, dict) or set(map(str, raw)) != set(a.coords):
+        raise a.fail("map", f"expected one expression of the new coordinates for each of {', '.join(a.coords)}")
+    f = sp.Matrix([a.expr(raw[c], f"map.{c}") for c in a.coords])
+    stray = set().union(*[e.free_symbols for e in f]) & set(a.q)
+    if stray:
+        raise a.fail("map", f"the expressions must use the new coordinates, not {sorted(s.name for s in stray)}")
+    T = f.jacobian(sp.Matrix(theta))
+    if T.det() == 0:
+        raise a.fail("map", "the map is singular (dq/dtheta not invertible)")
+    at = dict(zip(a.q, f))
+    M_new = a.tidy_matrix(T.T * a.M.subs(at, simultaneous=True) * T)
+    g_new = a.tidy_matrix(T.T * a.g.subs(at, simultaneous=True))
+    th = sp.Matrix(theta)
+    a.ctx.step("Change of coordinates", rf"q = f(\theta) = {a.L(f)},\quad T = \frac{{\partial f}}{{\partial \theta}} = {a.L(T)}",
+               "Velocities map as q' = T theta'; the kinetic energy keeps its value.")
+    a.ctx.step("Inertia matrix in the new coordinates", rf"M_\theta(\theta) = T^T M(f(\theta))\, T = {to_latex(M_new, new)}",
+               "From T = 1/2 theta'^T (T^T M T) theta'.", bodies=[b.name for b in a.robot.bodies])
+    a.ctx.step("Forces in the new coordinates", rf"\tau_\theta = T^T \tau_q,\quad T^T = {a.L(T.T)},\quad g_\theta = {to_latex(g_new, new)}",
+               "Virtual work: tau_theta^T theta' = tau_q^T q'.")
+    a.answer("T", T)
+    a.answer("M_new", M_new)
+    a.answer("g_new", g_new)
+    a.answer("force_map", T.T)
+
+
+# ====================================================================== points
+def _point_data(a: _Analysis):
+    body, local, label = a.point()
+    label = str(a.spec.get("name", label))
+    comp = a.components()
+    p3 = a.kin.point_position(body, local)
+    p = sp.Matrix([a.tidy(p3[c]) for c in comp])
+    J = sp.Matrix([[a.tidy(sp.diff(p3[c], qk)) for qk in a.q] for c in comp])
+    return body, label, p, J
+
+
+@task("point_kinematics")
+def point_kinematics_task(ctx, spec):
+    """Position, Jacobian and generalized force of a point (see the module docstring)."""
+    a = _Analysis(ctx, spec, "point_kinematics")
+    body, label, p, J = _point_data(a)
+    bodies = [body] if body else []
+    a.ctx.step(f"Position of {label}", rf"p_{{{label}}} = {a.L(p)}", "Forward kinematics of the point.", bodies=bodies)
+    a.ctx.step(f"Jacobian of {label}", rf"J_{{{label}}} = \frac{{\partial p}}{{\partial q}} = {a.L(J)}",
+               "p' = J q'.", bodies=bodies)
+    a.answer(f"p_{label}", p)
+    a.answer(f"J_{label}", J)
+    if J.cols == J.rows + 1:
+        minors = sp.Matrix([a.tidy(J[:, [j for j in range(J.cols) if j != k]].det()) for k in range(J.cols)])
+        a.ctx.step("Minors of the Jacobian", r",\quad ".join(rf"\det J_{{-{k + 1}}} = {a.L(m)}" for k, m in enumerate(minors)),
+                   "J loses rank exactly where all these minors vanish together.")
+        a.answer(f"minors_{label}", minors)
+    if spec.get("force") is not None:
+        force = spec["force"]
+        if not isinstance(force, list) or len(force) != J.rows:
+            raise a.fail("force", f"expected a list of {J.rows} expressions (one per component)")
+        F = sp.Matrix([a.expr(v, "force") for v in force])
+        tau = a.tidy_matrix(J.T * F)
+        a.ctx.step(f"Generalized force of a force at {label}", rf"\tau = J^T F = {a.L(J.T)} {a.L(F)} = {a.L(tau)}",
+                   "Virtual work of the force on the point, one component per coordinate.",
+                   bodies=bodies)
+        a.answer(f"tau_{label}", tau)
+
+
+@task("cartesian_inertia")
+def cartesian_inertia_task(ctx, spec):
+    """Cartesian inertia of a point, M_p = J^-T M J^-1 (see the module docstring)."""
+    a = _Analysis(ctx, spec, "cartesian_inertia")
+    body, label, p, J = _point_data(a)
+    if J.rows != J.cols:
+        raise a.fail("components", f"the Jacobian is {J.rows}x{J.cols}: M_p needs a square Jacobian")
+    det = a.tidy(J.det())
+    Jinv = J.inv()
+    Mp = sp.Matrix(J.rows, J.cols, lambda i, j: sp.factor(sp.cancel(sp.together((Jinv.T * a.M * Jinv)[i, j]))))
+    Mp = a.tidy_matrix(Mp)
+    a.ctx.step(f"Jacobian of {label}", rf"p = {a.L(p)},\quad J = {a.L(J)},\quad \det J = {a.L(det)}",
+               "M_p exists away from the singularities det J = 0.", bodies=[body] if body else [])
+    a.ctx.step("Cartesian inertia", rf"M_p(q) = J^{{-T}} M J^{{-1}} = {a.L(Mp)}",
+               "Kinetic energy in task coordinates: T = 1/2 p'^T M_p p'.", bodies=[b.name for b in a.robot.bodies])
+    a.answer("J", J)
+    a.answer("det_J", det)
+    a.answer("M_p", Mp)
+    at = a.configuration("at")
+    if at:
+        values = {**a.parameter_values(), **at}
+        missing = set(a.q) - set(at)
+        if missing:
+            raise a.fail("at", f"give every coordinate (missing {sorted(s.name for s in missing)})")
+        Mv = np.array(a.M.subs(values), dtype=float)
+        Jv = np.array(J.subs(values), dtype=float)
+        Jiv = np.linalg.inv(Jv)
+        Mpv = Jiv.T @ Mv @ Jiv
+        a.ctx.step("At the given configuration",
+                   rf"M(q^*) = {a.L(sp.Matrix(np.round(Mv, 6)))},\quad M_p(q^*) = {a.L(sp.Matrix(np.round(Mpv, 6)))}",
+                   "With the exercise's numbers; a force F at rest gives p'' = M_p^-1 F.")
+        a.answer("M_at", Mv)
+        a.answer("M_p_at", Mpv)
+        a.answer("M_p_inv_at", np.linalg.inv(Mpv))
+
+
+@task("rest_acceleration")
+def rest_acceleration_task(ctx, spec):
+    """Joint and point accelerations from rest (see the module docstring)."""
+    a = _Analysis(ctx, spec, "rest_acceleration")
+    n = len(a.coords)
+    names = spec.get("inputs") or [f"tau{i + 1}" for i in range(n)]
+    if not isinstance(names, list) or len(names) != n:
+        raise a.fail("inputs", f"expected {n} names of generalized forces")
+    u = sp.Matrix([a.expr(x, "inputs") for x in names])
+    rhs = u - a.g - a.k
+    ddq = a.tidy_matrix(a.M.LUsolve(rhs))
+    a.ctx.step("Accelerations from rest", rf"\ddot q_0 = M^{{-1}}(q)\,(u - g(q)) = {a.L(ddq)}",
+               "With q' = 0 the velocity terms vanish.", bodies=[b.name for b in a.robot.bodies])
+    a.answer("ddq_rest", ddq)
+    if spec.get("point") is not None:
+        body, label, p, J = _point_data(a)
+        pdd = a.tidy_matrix(J * ddq)
+        norm2 = sp.factor(sp.cancel(sp.together(sp.expand(sp.simplify((pdd.T * pdd)[0])))))
+        a.ctx.step(f"Acceleration of {label}", rf"\ddot p_0 = J(q)\,\ddot q_0 = {a.L(pdd)}",
+                   "The term J'(q) q' vanishes at rest.", bodies=[body] if body else [])
+        a.ctx.step("Its squared norm", rf"\|\ddot p_0\|^2 = {a.L(norm2)}", "")
+        a.answer("pdd_rest", pdd)
+        a.answer("pdd_rest_norm2", norm2)
+
+
+# ====================================================================== gravity gradient
+def _common_factor(entries) -> sp.Expr:
+    """The product of the configuration-free factors shared by all nonzero entries."""
+    common = None
+    for e in entries:
+        if e == 0:
+            continue
+        factors = {}
+        for f in sp.Mul.make_args(sp.factor(e)):
+            if f.is_number:
+                continue
+            base, exp = (f.base, f.exp) if f.is_Pow and f.exp.is_Integer else (f, 1)
+            factors[base] = factors.get(base, 0) + exp
+        if common is None:
+            common = factors
+        else:
+            common = {b: min(x, factors[b]) for b, x in common.items() if b in factors}
+    if not common:
+        return sp.Integer(1)
+    return sp.Mul(*[b ** x for b, x in common.items()])
+
+
+def _max_spectral_norm(f, lows, highs, seed: int = 0) -> Tuple[float, np.ndarray]:
+    """Maximum of ||f(q)||_2 over a box (grid and random starts, then local refinement)."""
+    from scipy.optimize import minimize
+    m = len(lows)
+    if m == 0:
+        return float(np.linalg.norm(f(np.zeros(0)), 2)), np.zeros(0)
+    per = max(3, int(round(20000 ** (1.0 / m))))
+    axes = [np.linspace(lo, hi, per) for lo, hi in zip(lows, highs)]
+    best, best_q = -1.0, None
+    for point in itertools.product(*axes):
+        val = np.linalg.norm(f(np.array(point)), 2)
+        if val > best:
+            best, best_q = val, np.array(point)
+    res = minimize(lambda x: -np.linalg.norm(f(x), 2), best_q, bounds=list(zip(lows, highs)), method="L-BFGS-B")
+    if -res.fun > best:
+        best, best_q = -res.fun, res.x
+    return float(best), best_q
+
+
+@task("gravity_gradient_bound")
+def gravity_gradient_bound_task(ctx, spec):
+    """alpha = max ||dg/dq|| and the gain it requires (see the module docstring)."""
+    a = _Analysis(ctx, spec, "gravity_gradient_bound")
+    g = a.g
+    if spec.get("use_balance"):
+        bal = getattr(ctx, "balance", None)
+        if not bal:
+            raise a.fail("use_balance", "needs a preceding gravity_balance task")
+        g = g.subs(bal)
+    dg = a.tidy_matrix(g.jacobian(a.q))
+    k = _common_factor(list(dg))
+    B = dg.applyfunc(lambda e: sp.cancel(e / k))
+    values = a.parameter_values()
+    Bn = B.subs(values)
+    qs = sorted(set().union(*[e.free_symbols for e in Bn]) & set(a.q), key=list(a.q).index)
+    lows, highs = [], []
+    for s in qs:
+        lim = a.robot.limits.get(s.name)
+        if s in a.angle_coordinates():
+            lows.append(-math.pi)
+            highs.append(math.pi)
+        elif lim is not None and lim.position is not None:
+            lows.append(lim.position[0])
+            highs.append(lim.position[1])
+        else:
+            raise a.fail("", f"dg/dq grows without bound with {s.name}: give it position limits")
+    fB = sp.lambdify([qs], Bn, "numpy")
+    peak, q_star = _max_spectral_norm(lambda x: np.array(fB(list(x)), dtype=float), lows, highs)
+    near = sp.nsimplify(peak, tolerance=1e-10, rational=False)
+    peak_expr = near if (near.is_Rational and abs(float(near) - peak) < 1e-10) else sp.Float(peak, 15)
+    alpha = _positive(k) * peak_expr
+    a.ctx.step("Gradient of gravity", rf"\frac{{\partial g}}{{\partial q}} = {a.L(dg)}",
+               "Its norm bounds how fast g changes between two configurations.",
+               bodies=[b.name for b in a.robot.bodies])
+    a.ctx.step("Its largest norm", rf"\alpha = \max_q \left\|\frac{{\partial g}}{{\partial q}}\right\| = {a.L(alpha)}",
+               f"Spectral norm of dg/dq divided by {k}, maximised over the configurations with the "
+               "exercise's numbers; PD control with a constant gravity compensation g(q_d) is globally asymptotically stable "
+               "when the smallest proportional gain exceeds alpha.")
+    a.answer("dg_dq", dg)
+    a.answer("alpha", alpha)
+    a.answer("alpha_at", sp.Matrix([float(x) for x in q_star]) if len(q_star) else sp.zeros(0, 1))
+    if spec.get("kp_min") is not None:
+        kp = a.number(spec["kp_min"], "kp_min")
+        name = spec.get("solve_for")
+        if not name or name not in a.robot.parameters:
+            raise a.fail("solve_for", "give the parameter to bound (a parameter of the robot)")
+        s = symbol(name)
+        others = {k2: v for k2, v in values.items() if k2 != s}
+        sols = [r for r in sp.solve(sp.Eq(alpha.subs(others), kp), s) if r.is_real and r > 0]
+        if not sols:
+            raise a.fail("solve_for", f"alpha does not reach {kp:g} for any positive {name}")
+        bound = float(min(sols))
+        a.ctx.step(f"Largest {name}", rf"\alpha({a.L(s)}) < {kp:g} \;\Leftrightarrow\; {a.L(s)} < {bound:.4f}",
+                   "The condition K_P,min > alpha, solved for the parameter.")
+        a.answer(f"{name}_max", bound)
+
+
+def _positive(k):
+    """|k| for a product of (positive) physical parameters: drop a leading minus sign."""
+    c, rest = sp.factor(k).as_coeff_Mul()
+    return abs(c) * rest
+
+
+# ====================================================================== numbers at a state
+@task("evaluate")
+def evaluate_task(ctx, spec):
+    """Numeric model terms at a state (see the module docstring)."""
+    a = _Analysis(ctx, spec, "evaluate")
+    q = a.configuration("at")
+    if set(q) != set(a.q):
+        raise a.fail("at", f"give every coordinate ({', '.join(a.coords)})")
+    dq = a.configuration("velocity", prefix="d")
+    values = {**a.parameter_values(), **q, **{s: 0.0 for s in a.dq}, **dq}
+    num = lambda m: np.array(sp.Matrix(m).subs(values).evalf(), dtype=float)
+    M, g, c = num(a.M), num(a.g + a.k), num(a.c)
+    a.ctx.step("Model at the state", rf"M = {a.L(sp.Matrix(np.round(M, 6)))},\quad g = {a.L(sp.Matrix(np.round(g, 6)))},"
+               rf"\quad c = {a.L(sp.Matrix(np.round(c, 6)))}", "With the exercise's numbers.",
+               bodies=[b.name for b in a.robot.bodies])
+    a.answer("M_at", M)
+    a.answer("g_at", g.reshape(-1))
+    a.answer("c_at", c.reshape(-1))
+    dqv = np.array([values[s] for s in a.dq], dtype=float)
+    a.answer("T_at", float(dqv @ M @ dqv / 2))
+    if spec.get("acceleration") is not None:
+        ddq = a.configuration("acceleration", prefix="dd")
+        ddqv = np.array([ddq.get(s, 0.0) for s in a.ddq])
+        fr = num(a.apply(a.dyn.friction)).reshape(-1)
+        tau = M @ ddqv + c.reshape(-1) + g.reshape(-1) + fr
+        a.ctx.step("Torques", rf"\tau = M\ddot q + c + g = {a.L(sp.Matrix(np.round(tau, 6)))}", "Inverse dynamics.")
+        a.answer("tau_at", tau)
+
+
+@task("kinetic_energy_decay")
+def kinetic_energy_decay_task(ctx, spec):
+    """The torque that makes the kinetic energy decay exponentially (see the module docstring)."""
+    a = _Analysis(ctx, spec, "kinetic_energy_decay")
+    gamma = a.expr(spec.get("gamma", "gamma"), "gamma")
+    tau = a.tidy_matrix(-gamma / 2 * a.M * a.dq)
+    a.ctx.step("Power balance", r"\dot T = \dot q^T \tau \;(\text{no potential forces}),\quad "
+               r"-\gamma T = -\tfrac{\gamma}{2}\dot q^T M(q)\dot q",
+               "The kinetic energy changes only through the power of the torques.")
+    a.ctx.step("A torque that achieves it", rf"\tau = -\frac{{\gamma}}{{2}} M(q)\dot q = {a.L(tau)}",
+               "One solution of q'^T tau = -gamma T (any torque orthogonal to q' may be added).",
+               bodies=[b.name for b in a.robot.bodies])
+    a.answer("tau_decay", tau)
+    q = a.configuration("at")
+    if q:
+        dq = a.configuration("velocity", prefix="d")
+        values = {**a.parameter_values(), **q, **{s: 0.0 for s in a.dq}, **dq}
+        tv = np.array(tau.subs(values).evalf(), dtype=float).reshape(-1)
+        a.ctx.step("At the initial state", rf"\tau(0) = {a.L(sp.Matrix(np.round(tv, 4)))}", "With the exercise's numbers [N m].")
+        a.answer("tau_decay_at", tv)
