@@ -233,8 +233,8 @@ def parse_gains(text: Optional[str]) -> Dict[str, float]:
     return out
 
 
-_KP = Gain("Kp", 100.0, "proportional gain K_P (diagonal)", "1/s^2 or N m/rad")
-_KD = Gain("Kd", 20.0, "derivative gain K_D (diagonal)", "1/s or N m s/rad")
+_KP = Gain("Kp", 100.0, "proportional gain K_P on the acceleration (diagonal)", "1/s^2")
+_KD = Gain("Kd", 20.0, "derivative gain K_D on the acceleration (diagonal)", "1/s")
 
 
 # ====================================================================== joint-space regulation and tracking
