@@ -34,6 +34,7 @@ import numpy as np
 import sympy as sp
 import trimesh
 
+from app.core.expressions import parse_expression
 from app.core.kinematics import Kinematics
 from app.core.robot import RobotModel
 
@@ -107,7 +108,9 @@ def compiled_frames(robot: RobotModel):
 
 
 def _numeric(expr, subs) -> float:
-    return float(sp.sympify(expr).xreplace(subs))
+    if not isinstance(expr, sp.Basic):       # a number or an expression written in the file
+        expr = parse_expression(expr, [s.name for s in subs])
+    return float(expr.xreplace(subs))
 
 
 def _vec(matrix, subs) -> np.ndarray:
@@ -343,6 +346,11 @@ class RobotDrawing:
                 self.parts.append(Part("com_dark", body.name, dark, (25, 25, 25), "com", body.name))
                 self.parts.append(Part("com_light", body.name, light, (245, 245, 245), "com", body.name))
         self.parts.extend(self._base_parts())
+        for body in robot.bodies:       # "link 0": the fixed column up to a first joint off the origin
+            offset = _vec(body.joint.pre.p, subs)
+            if body.parent is None and np.linalg.norm(offset) > 1e-9:
+                self.parts.append(Part(f"column_{body.name}", "base", capsule(np.zeros(3), offset, 1.3 * r),
+                                       BASE_COLOR, "base"))
 
     def _joint_range(self, body) -> Tuple[float, float]:
         """Range of a prismatic joint's variable over the coordinates' slider ranges."""

@@ -7,13 +7,10 @@ from typing import Callable, List, Tuple
 import numpy as np
 import sympy as sp
 
-from app.core.steps import to_latex
 from app.viewer import mathml
 
 TITLE = "Model"
 ORDER = 10
-
-SYMMETRIC = True
 
 
 def build(session) -> None:
@@ -24,8 +21,10 @@ def build(session) -> None:
     dq_state = {"dq": np.ones(n)}
     updaters: List[Tuple[object, Callable[[], str]]] = []
 
+    short = mathml.shorthand_is_clear(robot.parameters)
+
     def blocks(name, matrix, entry, symmetric=False):
-        return mathml.matrix_latex_blocks(name, matrix, coords, entry, symmetric=symmetric)
+        return mathml.matrix_latex_blocks(name, matrix, coords, entry, symmetric=symmetric, short_trig=short)
 
     def section(title, latex_blocks, numeric=None, expanded=True, note=""):
         folder = gui.add_folder(title, expand_by_default=expanded)
@@ -38,9 +37,11 @@ def build(session) -> None:
                 updaters.append((handle, numeric))
         return folder
 
+    legend = (" Shorthand: c₁ = cos q₁, s₁₂ = sin(q₁ + q₂), and so on." if short and
+              all(len(c) == 2 for c in coords) else "")
     gui.add_html(mathml.label_html(
         "Symbolic model of the robot file; the blue values are evaluated at the sliders' q, the "
-        "velocity q̇ below, and the current parameters."))
+        "velocity q̇ below, and the current parameters." + legend))
     with gui.add_folder("Velocity q̇ for C and c", expand_by_default=False):
         fields = []
         for i, name in enumerate(coords):

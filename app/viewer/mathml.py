@@ -8,7 +8,7 @@ broken into several lines, and matrices that do not fit are shown entry by entry
 >>> html = math_html(r"\\frac{a}{b}")
 >>> "<mfrac>" in html and html.startswith('<div class="r2-math"')
 True
->>> estimate_width_em(r"\\dot{q}_{1} \\cos{\\left(q_{1} \\right)}") < 6
+>>> estimate_width_em(r"\\dot{q}_{1} \\cos{\\left(q_{1} \\right)}") < 7
 True
 """
 from __future__ import annotations
@@ -28,7 +28,7 @@ from app.core.steps import to_latex
 FONT_PATH = Path(__file__).resolve().parents[2] / "static" / "fonts" / "STIXTwoMath-Regular.ttf"
 
 #: width of the formulas' box in the side panel, in em of the math font (about 16 px each)
-PANEL_WIDTH_EM = 24.0
+PANEL_WIDTH_EM = 23.0
 
 
 @functools.lru_cache(maxsize=1)
@@ -133,7 +133,7 @@ def estimate_width_em(latex: str) -> float:
                 total += 0.55
             i += 1
         return total
-    return width(latex)
+    return 1.3 * width(latex)    # calibrated on rendered model entries (STIX Two Math, Chromium)
 
 
 def _group(s: str, i: int):
@@ -159,18 +159,29 @@ def _group(s: str, i: int):
     return s[i + 1:], len(s)
 
 
-def sum_lines(lhs: str, expr, coordinates: Sequence[str], width_em: float = PANEL_WIDTH_EM) -> str:
+def shorthand_is_clear(parameter_names: Iterable[str]) -> bool:
+    """Whether the exam shorthand c_1 = cos q1, s_12 = sin(q1 + q2) can be used: not when a
+    parameter would print the same (a CoM distance called c1, say).
+
+    >>> shorthand_is_clear(["m1", "d1"]), shorthand_is_clear(["m1", "c1"])
+    (True, False)
+    """
+    return not any(re.match(r"^[cs]_?\d+$", name) for name in parameter_names)
+
+
+def sum_lines(lhs: str, expr, coordinates: Sequence[str], width_em: float = PANEL_WIDTH_EM,
+              short_trig: bool = True) -> str:
     """LaTeX of ``lhs = expr`` broken over several lines at top-level + and - signs when too wide.
 
     >>> q1, a, b = sp.symbols("q1 a b")
     >>> sum_lines("x", a + b, ["q1"])
     'x = a + b'
     """
-    full = f"{lhs} = {to_latex(expr, coordinates)}"
+    full = f"{lhs} = {to_latex(expr, coordinates, short_trig=short_trig)}"
     expr = sp.sympify(expr)
     if estimate_width_em(full) <= width_em or not isinstance(expr, sp.Add):
         return full
-    terms = [to_latex(t, coordinates) for t in sp.Add.make_args(expr)]
+    terms = [to_latex(t, coordinates, short_trig=short_trig) for t in sp.Add.make_args(expr)]
     lines: List[str] = []
     current = ""
     for k, term in enumerate(terms):
@@ -186,7 +197,8 @@ def sum_lines(lhs: str, expr, coordinates: Sequence[str], width_em: float = PANE
 
 
 def matrix_latex_blocks(name: str, matrix: sp.Matrix, coordinates: Sequence[str], entry_name: str,
-                        width_em: float = PANEL_WIDTH_EM, symmetric: bool = False) -> List[str]:
+                        width_em: float = PANEL_WIDTH_EM, symmetric: bool = False,
+                        short_trig: bool = True) -> List[str]:
     """LaTeX blocks showing ``name = matrix``: one block if it fits the width, otherwise one block
     per (non-zero) entry ``entry_name_{ij} = ...`` (upper triangle when symmetric), long entries
     broken over lines.
@@ -195,8 +207,8 @@ def matrix_latex_blocks(name: str, matrix: sp.Matrix, coordinates: Sequence[str]
     >>> matrix_latex_blocks("M", m, [], "m")
     ['M = \\\\left(\\\\begin{matrix}a & 0\\\\\\\\0 & b\\\\end{matrix}\\\\right)']
     """
-    full = f"{name} = {to_latex(matrix, coordinates)}"
-    if _matrix_width(matrix, coordinates) <= width_em:
+    full = f"{name} = {to_latex(matrix, coordinates, short_trig=short_trig)}"
+    if _matrix_width(matrix, coordinates, short_trig) <= width_em:
         return [full]
     rows, cols = matrix.shape
     blocks = []
@@ -207,15 +219,15 @@ def matrix_latex_blocks(name: str, matrix: sp.Matrix, coordinates: Sequence[str]
             if matrix[i, j] == 0:
                 continue
             index = f"{i + 1}{j + 1}" if cols > 1 and rows > 1 else f"{(i if cols == 1 else j) + 1}"
-            blocks.append(sum_lines(f"{entry_name}_{{{index}}}", matrix[i, j], coordinates, width_em))
+            blocks.append(sum_lines(f"{entry_name}_{{{index}}}", matrix[i, j], coordinates, width_em, short_trig))
     if not blocks:
         return [f"{name} = 0"]
     return blocks
 
 
-def _matrix_width(matrix: sp.Matrix, coordinates: Sequence[str]) -> float:
+def _matrix_width(matrix: sp.Matrix, coordinates: Sequence[str], short_trig: bool = True) -> float:
     rows, cols = matrix.shape
-    widths = [[estimate_width_em(to_latex(matrix[i, j], coordinates)) for j in range(cols)]
+    widths = [[estimate_width_em(to_latex(matrix[i, j], coordinates, short_trig=short_trig)) for j in range(cols)]
               for i in range(rows)]
     col_w = [max(widths[i][j] for i in range(rows)) for j in range(cols)]
     return sum(col_w) + 1.2 * cols + 4

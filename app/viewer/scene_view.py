@@ -48,6 +48,9 @@ class SceneView:
         self.highlighted: Dict[str, List[str]] = {"bodies": [], "joints": []}
         self._frame_pending = False
         self._camera_hooked = False
+        # flat textbook look, and cheap frames in software WebGL: no shadows, no environment map
+        self.scene.configure_default_lights(enabled=True, cast_shadow=False)
+        self.scene.configure_environment_map(hdri=None)
 
     # ------------------------------------------------------------------ robot
     def show_robot(self, drawing: RobotDrawing, q) -> None:
@@ -64,7 +67,8 @@ class SceneView:
                 handle = self.scene.add_mesh_simple(
                     f"{ROBOT_ROOT}/{_node(part.attach)}/{part.name}", mesh.vertices.astype(np.float32),
                     mesh.faces.astype(np.uint32), color=part.color, opacity=None if part.opacity >= 1 else part.opacity,
-                    flat_shading=False, visible=self.options["coms"] or part.role != "com")
+                    flat_shading=False, cast_shadow=False, receive_shadow=False,
+                    visible=self.options["coms"] or part.role != "com")
                 self._meshes.append((handle, part))
             for attach in ["base"] + [b.name for b in drawing.robot.bodies]:
                 self._axes.append(self.scene.add_frame(
@@ -111,7 +115,7 @@ class SceneView:
             grid = self.scene.add_grid(
                 f"{ENV_ROOT}/plane", width=size, height=size, plane="xy", cell_size=cell,
                 section_size=cell * 5, cell_color=(210, 214, 220), section_color=(160, 166, 176),
-                plane_color=(245, 246, 248), plane_opacity=0.6, shadow_opacity=0.15,
+                plane_color=(245, 246, 248), plane_opacity=0.6, shadow_opacity=0.0,
                 position=tuple(ground), wxyz=tuple(wxyz), visible=self.options["plane"])
         self._env.append(grid)
         g = drawing.gravity
@@ -134,7 +138,8 @@ class SceneView:
                 start[2] = 0.0
         mesh = arrow(start, -up * length, 0.45 * drawing.radius)
         handle = self.scene.add_mesh_simple(f"{ENV_ROOT}/gravity", mesh.vertices.astype(np.float32),
-                                            mesh.faces.astype(np.uint32), color=(40, 60, 110))
+                                            mesh.faces.astype(np.uint32), color=(40, 60, 110),
+                                            cast_shadow=False, receive_shadow=False)
         label = self.scene.add_label(f"{ENV_ROOT}/gravity_label", "g",
                                      position=tuple(start - up * length * 0.5 + 0.12 * framing.radius * side
                                                     if np.linalg.norm(side) > 1e-9 else start),
@@ -210,7 +215,8 @@ class SceneView:
                     mesh = part.mesh
                     self.scene.add_mesh_simple(f"{root}/{_node(part.attach)}/{part.name}",
                                                mesh.vertices.astype(np.float32), mesh.faces.astype(np.uint32),
-                                               color=color, opacity=opacity, cast_shadow=False)
+                                               color=color, opacity=opacity, cast_shadow=False,
+                                               receive_shadow=False)
                 self._ghosts[name] = (self.drawing, frames)
             poses = self.drawing.poses(q)
             with self.client.atomic():
@@ -265,7 +271,8 @@ class SceneView:
         r = 0.5 * (self.drawing.radius if self.drawing else 0.02)
         mesh = arrow(start, vector, r)
         handle = self.scene.add_mesh_simple(f"{OVERLAY_ROOT}/{name}", mesh.vertices.astype(np.float32),
-                                            mesh.faces.astype(np.uint32), color=color)
+                                            mesh.faces.astype(np.uint32), color=color,
+                                            cast_shadow=False, receive_shadow=False)
         self._put(name, handle)
         if label:
             self.add_label(f"{name}_label", label, np.asarray(start, float) + np.asarray(vector, float))

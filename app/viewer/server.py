@@ -1,14 +1,14 @@
 """The lab's web server: a viser server whose every browser tab gets its own ``Session``.
 
->>> import contextlib, io
->>> with contextlib.redirect_stdout(io.StringIO()):   # viser's start-up banner
-...     lab = LabServer(port=0, verbose=False)
+>>> lab = LabServer(port=0, verbose=False)
 >>> lab.url.startswith("http://127.0.0.1:")
 True
 >>> lab.stop()
 """
 from __future__ import annotations
 
+import contextlib
+import io
 import threading
 from dataclasses import dataclass
 from pathlib import Path
@@ -47,7 +47,9 @@ class LabServer:
         if robot is not None:
             self.robot(robot)          # fail early (UserError) on an unknown robot
         self.initial_robot = robot or (DEFAULT_ROBOT if DEFAULT_ROBOT in names else names[0])
-        self.viser = viser.ViserServer(host=host, port=port, label="Robotics II Lab", verbose=verbose)
+        self.verbose = verbose
+        with self._quiet():
+            self.viser = viser.ViserServer(host=host, port=port, label="Robotics II Lab", verbose=verbose)
         self.viser.on_client_connect(self._connect)
         self.viser.on_client_disconnect(self._disconnect)
 
@@ -60,7 +62,12 @@ class LabServer:
     def stop(self) -> None:
         for session in list(self.sessions.values()):
             session.close()
-        self.viser.stop()
+        with self._quiet():
+            self.viser.stop()
+
+    def _quiet(self):
+        """Silence viser's banner and stop message unless verbose."""
+        return contextlib.nullcontext() if self.verbose else contextlib.redirect_stdout(io.StringIO())
 
     # ------------------------------------------------------------------ robots
     def robot(self, name: str) -> RobotModel:

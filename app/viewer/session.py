@@ -286,6 +286,9 @@ class Session:
         except UserError as exc:
             self.notify(f"Cannot load {name}", str(exc), error=True)
             return
+        except Exception:
+            self._internal_error(owner=f"drawing of {name}")
+            return
         with self._lock:
             self.generation += 1
             generation = self.generation
