@@ -705,15 +705,20 @@ def rest_acceleration_task(ctx, spec):
 
 
 # ====================================================================== gravity gradient
-def _common_factor(entries) -> sp.Expr:
-    """The product of the configuration-free factors shared by all nonzero entries."""
+def _common_factor(entries, variables) -> sp.Expr:
+    """The product of the factors free of ``variables`` shared by all nonzero entries.
+
+    >>> x, m, g = symbol("x"), symbol("m"), symbol("g")
+    >>> _common_factor([-2*g*m*sp.cos(x), g*m**2*sp.sin(x)], [x])
+    g*m
+    """
     common = None
     for e in entries:
         if e == 0:
             continue
         factors = {}
         for f in sp.Mul.make_args(sp.factor(e)):
-            if f.is_number:
+            if f.is_number or f.free_symbols & set(variables):
                 continue
             base, exp = (f.base, f.exp) if f.is_Pow and f.exp.is_Integer else (f, 1)
             factors[base] = factors.get(base, 0) + exp
@@ -756,7 +761,7 @@ def gravity_gradient_bound_task(ctx, spec):
             raise a.fail("use_balance", "needs a preceding gravity_balance task")
         g = g.subs(bal)
     dg = a.tidy_matrix(g.jacobian(a.q))
-    k = _common_factor(list(dg))
+    k = _common_factor(list(dg), list(a.q))
     B = dg.applyfunc(lambda e: sp.cancel(e / k))
     values = a.parameter_values()
     Bn = B.subs(values)
