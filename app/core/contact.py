@@ -105,7 +105,7 @@ def momentum_residual(tau_ext, gains, t) -> np.ndarray:
 def impedance_gains(mass, omega, zeta):
     """(K_d, D_d) giving M_d x'' + D_d x' + K_d x with natural frequency omega and damping zeta.
 
-    >>> [round(x, 2) for x in impedance_gains(5, 10, 0.7071)]
+    >>> [round(float(x), 2) for x in impedance_gains(5, 10, 0.7071)]
     [500.0, 70.71]
     """
     return mass * omega ** 2, 2 * zeta * omega * mass

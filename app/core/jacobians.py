@@ -66,9 +66,8 @@ def point_location(robot: RobotModel, point) -> Tuple[Optional[str], sp.Matrix]:
             pt = robot.points[point]
             return pt.body, pt.position
         raise JacobianError(f"robot {robot.name} has no point '{point}' (points: {', '.join(robot.points) or 'none'})")
-    if isinstance(point, dict) and "body" in point:
+    if isinstance(point, dict) and "body" in point:     # 'at' may use names of the exercise (l_c2)
         from .expressions import parse_expression
-        names = set(robot.parameters) | set(robot.coordinates)
         at = point.get("at", [0, 0, 0])
         if not isinstance(at, (list, tuple)) or len(at) != 3:
             raise JacobianError(f"point 'at' must be a list of 3 numbers or expressions, got {at!r}")
@@ -76,7 +75,7 @@ def point_location(robot: RobotModel, point) -> Tuple[Optional[str], sp.Matrix]:
             robot.body(point["body"])
         except KeyError as exc:
             raise JacobianError(str(exc).strip("'\"")) from None
-        return point["body"], sp.Matrix([parse_expression(v, names) for v in at])
+        return point["body"], sp.Matrix([parse_expression(v) for v in at])
     raise JacobianError(f"a point is a name or {{body: ..., at: [x, y, z]}}, got {point!r}")
 
 

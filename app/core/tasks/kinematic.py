@@ -141,6 +141,13 @@ class TaskData:
         except ExpressionError as exc:
             raise self._fail(f"{where}: {exc}") from None
 
+    def substitute(self, expr):
+        """Replace the names of an expression that are neither coordinates nor robot parameters by
+        their values from the exercise (e.g. a contact distance l_c2 used in a point)."""
+        names = set(self.robot.coordinates) | set(self.robot.parameters)
+        extra = {s: self.number(s.name, s.name) for s in sp.sympify(expr).free_symbols if s.name not in names}
+        return expr.xreplace(extra) if extra else expr
+
     def configuration(self, spec=None) -> np.ndarray:
         n = self.robot.n
         if spec is not None:
@@ -236,7 +243,7 @@ def jacobian_task(ctx, spec):
     q = None
     if J_num is None:
         q = d.configuration(spec.get("q"))
-        J_num = np.atleast_2d(jac.evaluate(robot, J_sym, q, d.params))
+        J_num = np.atleast_2d(jac.evaluate(robot, d.substitute(J_sym), q, d.params))
     d.store[name] = {"sym": J_sym, "num": J_num, "r": r_sym, "q": q}
     if J_sym is not None:
         ctx.step(f"Jacobian {name}", f"{_tex(name)}(q) = " + L(J_sym), f"{what.capitalize()}.")
@@ -247,7 +254,7 @@ def jacobian_task(ctx, spec):
              configuration=conf)
     ctx.answer(f"{name}_num", J_num)
     if spec.get("position") and r_sym is not None and q is not None:
-        r_num = np.asarray(jac.evaluate(robot, r_sym, q, d.params), float).reshape(-1)
+        r_num = np.asarray(jac.evaluate(robot, d.substitute(r_sym), q, d.params), float).reshape(-1)
         ctx.step(f"Task value", f"r(q) = " + L(r_sym) + " = " + vec(r_num), "")
         ctx.answer(f"{name}_position", r_num)
     a = jac.analyze(J_num, float(spec.get("threshold", jac.DEFAULT_THRESHOLD)))

@@ -1,0 +1,252 @@
+"""Contact and force tasks (numeric, at a configuration): static torques, contact-force estimation
+and isolation, collision detection by energy and momentum residuals, impedance gains.
+Values follow the conventions of ``kinematic`` (TaskData).
+
+``static_torque``: tau = g(q) (with ``gravity: true``) + sum_k J_k^T F_k for ``forces``, a list of
+  {label, point, force} or {label, point, stiffness, target} (a Cartesian spring at rest:
+  F = K (p_target - p(q))). Answers ``<name>`` (default tau), ``<name>_gravity``, and per force
+  ``F_<label>``, ``p_<label>``, ``J_<label>``.
+``contact_force``: estimate a contact force from the joint torque it produces. ``torque`` (tau_c),
+  ``sign`` (+1: tau_c = J_c^T F, the default; -1: tau = -J_c^T F balances F), ``link`` (a body
+  name, or ``auto``: isolation from the last nonzero torque), ``distance`` (of the contact point
+  along the link; ``estimate`` (default) solves for it when enough joints precede the link and
+  otherwise takes the link midpoint), ``subtract_gravity`` (tau_c = tau - g(q)). Answers
+  ``<name>`` (base frame), ``<name>_local`` (link frame), ``<name>_link`` (1-based index),
+  ``<name>_distance``, ``<name>_jacobian``, ``<name>_jacobian_local``, ``<name>_norm``.
+``external_torque``: joint torque of external forces at a static equilibrium where the
+  controller applies ``torque``: tau_ext = g(q) - tau. Answers ``<name>`` and ``<name>_residual``
+  (the steady state of the momentum residual, equal to tau_ext), ``<name>_link`` (isolation).
+``collision_analysis``: ``contacts`` [{label, point, force}] at (q, ``velocity``): answers per
+  label ``v_<label>`` (contact point velocity), ``power_<label>`` (v^T F, what the energy residual
+  sees), ``tau_<label>`` (J_c^T F, the momentum residual at steady state), ``J_<label>``,
+  ``energy_detects_<label>`` and ``momentum_detects_<label>`` (1 or 0), ``link_<label>``
+  (isolated link index, 0 if undetected).
+``impedance_gains``: ``mass`` (number, list or ``inertia`` for a constant M(q)), and either
+  ``omega`` and ``zeta`` or ``eigenvalue`` (double real eigenvalue -lambda). Answers ``K_d``,
+  ``D_d``, ``M_d``.
+"""
+from __future__ import annotations
+
+import numpy as np
+import sympy as sp
+
+from .. import contact as con
+from .. import jacobians as jac
+from ..errors import UserError
+from ..latex import mat, num, vec
+from . import task
+from .kinematic import data
+
+
+def _planar_rows(robot):
+    return ["x", "y"] if robot.is_planar else ["x", "y", "z"]
+
+
+def _point_jacobian(d, point, q):
+    comps = _planar_rows(d.robot)
+    try:
+        J = jac.jacobian(d.robot, point, comps)
+        r = jac.task_function(d.robot, point, comps)
+    except UserError as exc:
+        raise d._fail(str(exc)) from None
+    return (np.atleast_2d(jac.evaluate(d.robot, J, q, d.params)),
+            np.asarray(jac.evaluate(d.robot, r, q, d.params), float).reshape(-1))
+
+
+def _gravity(d, q):
+    return np.asarray(d.ctx.numeric.g(q), float).reshape(-1)
+
+
+def _highlight_force(label, p, F):
+    return {"label": label, "origin": (list(p) + [0.0])[:3], "vector": (list(F) + [0.0])[:3], "role": "force"}
+
+
+@task("static_torque")
+def static_torque_task(ctx, spec):
+    """tau = g(q) + sum J^T F at a static configuration."""
+    d = data(ctx)
+    name = spec.get("name", "tau")
+    q = d.configuration(spec.get("q"))
+    n = d.robot.n
+    tau = np.zeros(n)
+    conf = {c: float(v) for c, v in zip(d.robot.coordinates, q)}
+    if spec.get("gravity"):
+        g = _gravity(d, q)
+        tau += g
+        ctx.step("Gravity torque", "g(q) = " + vec(g), "Balances the weight of the links at rest.", configuration=conf)
+        ctx.answer(f"{name}_gravity", g)
+    for k, f in enumerate(spec.get("forces") or [], 1):
+        label = str(f.get("label", f"F{k}"))
+        J, p = _point_jacobian(d, f.get("point", "ee"), q)
+        if "force" in f:
+            F = d.array(f["force"], f"forces.{label}").reshape(-1)
+            how = "Given force."
+        else:
+            K = d.array(f["stiffness"], f"forces.{label}.stiffness")
+            target = d.array(f["target"], f"forces.{label}.target").reshape(-1)
+            K = np.diag(K * np.ones(p.size)) if K.ndim < 2 else K
+            F = K @ (target - p)
+            how = f"Cartesian spring F = K (p_d - p) with p = {vec(p)}."
+        t = con.static_torque(J, F)
+        tau += t
+        ctx.step(f"Force {label}", rf"F_{{{label}}} = {vec(F)},\quad J^T = {mat(J.T)},\quad J^T F = {vec(t)}", how,
+                 vectors=[_highlight_force(label, p, F)], configuration=conf)
+        ctx.answer(f"F_{label}", F)
+        ctx.answer(f"p_{label}", p)
+        ctx.answer(f"J_{label}", J)
+    ctx.step("Joint torque", rf"\tau = {vec(tau)}", "Sum of the contributions [N m].")
+    ctx.answer(name, tau)
+
+
+@task("external_torque")
+def external_torque_task(ctx, spec):
+    """tau_ext = g(q) - tau at a static equilibrium under the control torque tau."""
+    d = data(ctx)
+    name = spec.get("name", "tau_ext")
+    q = d.configuration(spec.get("q"))
+    tau = d.array(spec["torque"], "torque").reshape(-1)
+    g = _gravity(d, q)
+    ext = g - tau
+    link = con.isolate(ext)
+    ctx.step("Balance at rest", r"g(q) = \tau + \tau_{ext}\ \Rightarrow\ \tau_{ext} = g(q) - \tau = " + vec(ext),
+             "At a static equilibrium the model reduces to the balance of gravity, control and external torques.")
+    ctx.step("Momentum residual", r"\dot r = K_I(\tau_{ext} - r)\ \Rightarrow\ r_\infty = \tau_{ext} = " + vec(ext),
+             f"The residual converges to the external torque; its last nonzero component isolates link {link}.",
+             bodies=[d.robot.bodies[link - 1].name] if link else [])
+    ctx.answer(name, ext)
+    ctx.answer(f"{name}_residual", ext)
+    ctx.answer(f"{name}_link", link)
+
+
+def _link_length(d, body):
+    """Length of a link: the offset of the next joint along x, or the farthest named point on it."""
+    for b in d.robot.bodies:
+        if b.parent == body.name:
+            return float(jac.evaluate(d.robot, b.joint.pre.p[0], np.zeros(d.robot.n), d.params))
+    xs = [float(jac.evaluate(d.robot, p.position[0], np.zeros(d.robot.n), d.params))
+          for p in d.robot.points.values() if p.body == body.name]
+    if xs:
+        return max(xs)
+    raise d._fail(f"cannot find the length of {body.name}: give distance explicitly")
+
+
+@task("contact_force")
+def contact_force_task(ctx, spec):
+    """Contact force (and point) from the joint torques it produces."""
+    d = data(ctx)
+    robot = d.robot
+    name = spec.get("name", "Fc")
+    q = d.configuration(spec.get("q"))
+    tau = d.array(spec["torque"], "torque").reshape(-1)
+    if spec.get("subtract_gravity"):
+        tau = tau - _gravity(d, q)
+    sign = float(spec.get("sign", 1))
+    tau_c = sign * tau
+    link_spec = spec.get("link", "auto")
+    if link_spec == "auto":
+        idx = con.isolate(tau_c)
+        if idx == 0:
+            raise d._fail("contact_force: every joint torque is zero, no contact to estimate")
+        body = robot.bodies[idx - 1]
+        ctx.step("Isolation", rf"\tau_c = {vec(tau_c)}",
+                 f"The last nonzero component is joint {idx}: the force acts on {body.name}.", bodies=[body.name])
+    else:
+        try:
+            body = robot.body(link_spec)
+        except KeyError:
+            raise d._fail(f"contact_force.link: no body '{link_spec}'") from None
+        idx = robot.bodies.index(body) + 1
+    comps = _planar_rows(robot)
+    Jo = np.atleast_2d(jac.evaluate(robot, jac.jacobian(robot, {"body": body.name, "at": [0, 0, 0]}, comps), q, d.params))
+    J1 = np.atleast_2d(jac.evaluate(robot, jac.jacobian(robot, {"body": body.name, "at": [1, 0, 0]}, comps), q, d.params))
+    Ju = J1 - Jo
+    R = np.asarray(jac.evaluate(robot, jac.rotation(robot, body.name), q, d.params), float)[:len(comps), :len(comps)]
+    dist = spec.get("distance", "estimate")
+    unknowns_ok = idx >= len(comps) + 1
+    if dist == "estimate" and not unknowns_ok:
+        dist = _link_length(d, body) / 2
+        ctx.step("Contact point", rf"l_c = {num(dist)}",
+                 f"Only {idx} joint torque(s) see a force on {body.name}: force and point cannot both be found; the midpoint is taken.")
+    if dist == "estimate":
+        try:
+            est = con.estimate_contact(Jo, Ju, tau_c)
+        except UserError as exc:
+            raise d._fail(f"contact_force: {exc}") from None
+        ctx.step("Force and contact point", rf"\tau_c = (J_o + l\,J_u)^T F\ \Rightarrow\ l = {num(est.distance)},\quad F = {vec(est.force)}",
+                 "J_c is affine in the distance l along the link: with enough joint torques both are found.")
+    else:
+        l = d.number(dist, "distance")
+        est = con.estimate_contact(Jo, Ju, tau_c, distance=l)
+        ctx.step("Contact force", rf"J_c = {mat(est.jacobian)},\quad F = (J_c^T)^\# \tau_c = {vec(est.force)}",
+                 "Minimum-norm force: components that produce no joint torque (e.g. along the link when only joint 1 sees it) are set to zero.")
+    F_local = R.T @ est.force
+    p = np.asarray(jac.evaluate(robot, jac.task_function(robot, {"body": body.name, "at": [0, 0, 0]}, comps), q, d.params), float).reshape(-1)
+    p_c = p + est.distance * R[:, 0]
+    ctx.step("Force in the link frame", rf"^{{{idx}}}F = R_{idx}^T F = {vec(F_local)},\quad ^{{{idx}}}J_c = {mat(R.T @ est.jacobian)}",
+             "Tangential and normal components with respect to the link.",
+             vectors=[_highlight_force(name, p_c, est.force)], bodies=[body.name],
+             configuration={c: float(v) for c, v in zip(robot.coordinates, q)})
+    ctx.answer(name, est.force)
+    ctx.answer(f"{name}_local", F_local)
+    ctx.answer(f"{name}_link", idx)
+    ctx.answer(f"{name}_distance", est.distance)
+    ctx.answer(f"{name}_jacobian", est.jacobian)
+    ctx.answer(f"{name}_jacobian_local", R.T @ est.jacobian)
+    ctx.answer(f"{name}_norm", float(np.linalg.norm(est.force)))
+
+
+@task("collision_analysis")
+def collision_analysis_task(ctx, spec):
+    """Energy- and momentum-based detection and isolation for given contact forces."""
+    d = data(ctx)
+    q = d.configuration(spec.get("q"))
+    dq = d.array(spec.get("velocity", [0] * d.robot.n), "velocity").reshape(-1)
+    for k, c in enumerate(spec.get("contacts") or [], 1):
+        label = str(c.get("label", f"c{k}"))
+        J, p = _point_jacobian(d, c.get("point", "ee"), q)
+        F = d.array(c["force"], f"contacts.{label}.force").reshape(-1)
+        v = J @ dq
+        power = float(v @ F)
+        tau = con.static_torque(J, F)
+        link = con.isolate(tau)
+        e_det, m_det = int(abs(power) > 1e-9), int(link > 0)
+        ctx.step(f"Collision {label}",
+                 rf"v_c = J_c \dot q = {vec(v)},\quad v_c^T F = {num(power)},\quad \tau_c = J_c^T F = {vec(tau)}",
+                 ("Energy residual: detected. " if e_det else "Energy residual: not detected (no power exchanged). ")
+                 + (f"Momentum residual: detected, isolated on link {link}." if m_det else
+                    "Momentum residual: not detected (F lies in the null space of J_c^T)."),
+                 vectors=[_highlight_force(label, p, F)], configuration={cc: float(x) for cc, x in zip(d.robot.coordinates, q)})
+        ctx.answer(f"v_{label}", v)
+        ctx.answer(f"power_{label}", power)
+        ctx.answer(f"tau_{label}", tau)
+        ctx.answer(f"J_{label}", J)
+        ctx.answer(f"energy_detects_{label}", e_det)
+        ctx.answer(f"momentum_detects_{label}", m_det)
+        ctx.answer(f"link_{label}", link)
+
+
+@task("impedance_gains")
+def impedance_gains_task(ctx, spec):
+    """Stiffness and damping of a desired impedance from its time behaviour."""
+    d = data(ctx)
+    mass = spec.get("mass", 1)
+    if isinstance(mass, str) and mass == "inertia":
+        M = np.asarray(d.ctx.numeric.M(np.zeros(d.robot.n)), float)
+        if not np.allclose(M, np.diag(np.diag(M))):
+            raise d._fail("impedance_gains: mass 'inertia' needs a constant diagonal inertia matrix")
+        m = np.diag(M)
+    else:
+        m = d.array(mass, "mass").reshape(-1)
+    if "eigenvalue" in spec:
+        lam = d.number(spec["eigenvalue"], "eigenvalue")
+        K, D = con.critically_damped_gains(m, lam)
+        how = rf"(s + \lambda)^2:\ D_d = 2 M_d \lambda,\ K_d = M_d \lambda^2,\ \lambda = {num(lam)}"
+    else:
+        w, z = d.number(spec["omega"], "omega"), d.number(spec["zeta"], "zeta")
+        K, D = con.impedance_gains(m, w, z)
+        how = rf"s^2 + 2\zeta\omega_n s + \omega_n^2:\ \omega_n = {num(w)},\ \zeta = {num(z)}"
+    ctx.step("Impedance gains", how + rf",\quad M_d = {vec(m)},\ K_d = {vec(K)},\ D_d = {vec(D)}",
+             "M_d x'' + D_d x' + K_d x = F along each direction.")
+    ctx.answer("M_d", m if m.size > 1 else float(m[0]))
+    ctx.answer("K_d", K if np.size(K) > 1 else float(np.reshape(K, -1)[0]))
+    ctx.answer("D_d", D if np.size(D) > 1 else float(np.reshape(D, -1)[0]))
