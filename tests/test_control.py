@@ -160,6 +160,7 @@ def test_momentum_residual_is_zero_without_contact_and_tracks_the_contact_torque
     tau_ext = np.array([point.jacobian(q).T @ np.array([-10.0, 5.0]) if t >= 1.0 else np.zeros(2)
                         for q, t in zip(res.q, res.t)])
     assert np.max(np.abs(tau_ext)) > 5
+    assert np.allclose(res.tau_ext, tau_ext, atol=1e-9)          # recorded by the simulation
     dt = 1.0 / res.rate
     filt = np.zeros_like(tau_ext)
     for k in range(1, len(res.t)):       # exact discretization of r' = K (tau_ext - r), tau_ext held
@@ -252,6 +253,8 @@ def test_impedance_against_a_compliant_wall_settles_where_the_impedance_balances
     assert np.allclose(Km * (p - goal), F, atol=1e-3 * abs(F[0]))
     # and the measured force the controller used is the wall's force
     assert np.allclose(res.internals["F_x"][-1], F[0], rtol=1e-3)
+    assert res.task_point == "ee" and np.allclose(res.ref_points[-1], [goal[0], goal[1], 0.0])
+    assert np.allclose(res.actual_points[-1, :2], p)
 
 
 def test_admittance_against_a_compliant_wall_bends_its_reference():

@@ -56,74 +56,10 @@ def add_arguments(p):
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
 
 
-def _numbers(text: Optional[str], what: str) -> Optional[List[float]]:
-    from app.core.errors import UserError
-    from app.core.expressions import ExpressionError, parse_expression
-    if text is None:
-        return None
-    out = []
-    for part in text.split(","):
-        part = part.strip()
-        if not part:
-            continue
-        try:
-            out.append(float(parse_expression(part, allowed_names=())))
-        except (ExpressionError, TypeError) as exc:
-            raise UserError(f"{what}: '{part}' is not a number ({exc})") from None
-    if not out:
-        raise UserError(f"{what}: no values given")
-    return out
-
-
-def _assignments(text: str, what: str) -> Dict[str, float]:
-    from app.core.errors import UserError
-    out = {}
-    for item in text.split(","):
-        item = item.strip()
-        if not item:
-            continue
-        if "=" not in item:
-            raise UserError(f"{what}: expected name=value, got '{item}'")
-        key, raw = (x.strip() for x in item.split("=", 1))
-        out[key] = _numbers(raw, f"{what} {key}")[0]
-    return out
-
-
-def _spec(text: str, what: str, keys) -> tuple:
-    """'POINT key=value ...' -> (point, {key: [numbers]})."""
-    from app.core.errors import UserError
-    parts = text.split()
-    if not parts or "=" in parts[0]:
-        raise UserError(f"{what}: start with the point's name, e.g. '{what[2:]} ee ...'")
-    point, values = parts[0], {}
-    for item in parts[1:]:
-        if "=" not in item:
-            raise UserError(f"{what}: expected key=value, got '{item}'")
-        key, raw = item.split("=", 1)
-        if key not in keys:
-            raise UserError(f"{what}: unknown key '{key}' (allowed: {', '.join(keys)})")
-        values[key] = _numbers(raw, f"{what} {key}")
-    return point, values
-
-
 def _contacts(args):
-    from app.core.errors import UserError
-    from app.core.sim import PointForce, Surface
-    out = []
-    for text in args.force:
-        point, v = _spec(text, "--force", ("F", "from", "to", "at"))
-        if "F" not in v:
-            raise UserError("--force: give the force, e.g. F=-10,0 (newtons, world frame)")
-        where = (point, v["at"]) if "at" in v else point
-        out.append(PointForce(where, v["F"], v.get("from", [0.0])[0], v.get("to", [float("inf")])[0]))
-    for text in args.surface:
-        point, v = _spec(text, "--surface", ("normal", "offset", "k", "d", "at"))
-        if "normal" not in v:
-            raise UserError("--surface: give the normal pointing to the free side, e.g. normal=0,1")
-        where = (point, v["at"]) if "at" in v else point
-        out.append(Surface(where, v["normal"], v["offset"][0] if "offset" in v else None,
-                           v["k"][0] if "k" in v else None, v["d"][0] if "d" in v else 0.0))
-    return out
+    from app.core.sim import parse_contact
+    return ([parse_contact("force", text) for text in args.force]
+            + [parse_contact("surface", text) for text in args.surface])
 
 
 def list_controllers(out=None) -> None:
@@ -162,7 +98,7 @@ def summary(res) -> dict:
 def run(args) -> int:
     from app.core.control import parse_gains
     from app.core.errors import UserError
-    from app.core.sim import simulate
+    from app.core.sim import parse_assignments, parse_numbers, simulate
 
     if args.list:
         list_controllers()
@@ -176,13 +112,13 @@ def run(args) -> int:
         passive = [c.strip() for c in args.passive.split(",") if c.strip()]
     saturation = args.saturation
     if saturation is not None and saturation.strip() != "limits":
-        saturation = _numbers(saturation, "--saturation")
-    observer = _numbers(args.observer, "--observer") if args.observer is not None else None
+        saturation = parse_numbers(saturation, "--saturation")
+    observer = parse_numbers(args.observer, "--observer") if args.observer is not None else None
     res = simulate(
         args.robot, args.controller, reference=args.reference or None, duration=args.duration, rate=args.rate,
-        substeps=args.substeps, q0=_numbers(args.q0, "--q0"), dq0=_numbers(args.dq0, "--dq0"),
-        gains=parse_gains(args.gains), plant_params=_assignments(args.plant, "--plant") or None,
-        model_params=_assignments(args.model, "--model") or None, viscous=_numbers(args.viscous, "--viscous"),
+        substeps=args.substeps, q0=parse_numbers(args.q0, "--q0"), dq0=parse_numbers(args.dq0, "--dq0"),
+        gains=parse_gains(args.gains), plant_params=parse_assignments(args.plant, "--plant") or None,
+        model_params=parse_assignments(args.model, "--model") or None, viscous=parse_numbers(args.viscous, "--viscous"),
         saturation=saturation.strip() if isinstance(saturation, str) else saturation, passive=passive,
         contacts=_contacts(args), observer=observer, point=args.point, backend=args.backend)
     if args.out:

@@ -575,6 +575,10 @@ class _Cartesian(Controller):
         F = self.s.read_force(self.point.name)
         return np.zeros(self.point.dim) if F is None else F
 
+    def reference_points(self, ref: np.ndarray) -> np.ndarray:
+        """World positions (N x 3) of the reference samples."""
+        return np.hstack([ref, np.zeros((ref.shape[0], 3 - ref.shape[1]))]) if ref.shape[1] < 3 else ref.copy()
+
     def measure(self, Q, DQ):
         X = np.array([self.point.position(q) for q in Q])
         DX = np.array([self.point.jacobian(q) @ dq for q, dq in zip(Q, DQ)])
@@ -706,6 +710,11 @@ class Hybrid(_Cartesian):
 
     def _to_task(self, X, DX):
         return X @ self.T, DX @ self.T
+
+    def reference_points(self, ref):
+        # the point of the surface at tangential coordinate s: T s + n offset
+        offset = float(self.normal @ self.point.position(self.s.q0))
+        return super().reference_points(ref @ self.T.T + offset * self.normal)
 
 
 # ====================================================================== collision detection

@@ -442,7 +442,7 @@ class SimResult:
     ``actual, dactual`` (the referenced quantity: joints, a point's position, ...) and
     ``e = ref - actual``, ``de`` have one column per reference coordinate; ``internals`` maps a
     column name to the controller's (and observer's) internal signals; ``forces`` maps a contact
-    to its force on the robot. ``message`` says why a run stopped early ('' when it completed)."""
+    to its force on the robot, ``tau_ext`` is their joint torque sum J^T F. ``message`` says why a run stopped early ('' when it completed)."""
     robot: str
     controller: str
     title: str
@@ -464,6 +464,10 @@ class SimResult:
     internals: Dict[str, np.ndarray] = field(default_factory=dict)
     forces: Dict[str, np.ndarray] = field(default_factory=dict)
     force_axes: List[str] = field(default_factory=list)
+    tau_ext: Optional[np.ndarray] = None           # sum of J^T F over the contacts (None: no contacts)
+    task_point: Optional[str] = None               # the point of a Cartesian controller
+    ref_points: Optional[np.ndarray] = None        # its reference and actual positions (N x 3, world)
+    actual_points: Optional[np.ndarray] = None
     message: str = ""
     rate: float = 1000.0
     wall_time: float = 0.0
@@ -502,6 +506,9 @@ class SimResult:
         for name, arr in self.forces.items():
             names += [f"F_{name}_{a}" for a in self.force_axes[:arr.shape[1]]]
             cols.append(arr)
+        if self.tau_ext is not None:
+            names += [f"tau_ext_{x}" for x in c]
+            cols.append(self.tau_ext)
         return names, np.hstack(cols) if cols else np.zeros((0, 0))
 
     def metadata(self) -> Dict[str, str]:
@@ -688,6 +695,7 @@ def simulate(robot: Union[RobotModel, str], controller: Union[Controller, str], 
     INT = np.empty((N + 1, len(internal_names))) if internal_names else None
     contact_names = [c.name for c in resolved]
     FORCES = np.zeros((N + 1, len(resolved), resolved[0].point.dim)) if resolved else None
+    TEXT = np.zeros((N + 1, n)) if resolved else None
 
     # the loop
     step = controller.step
@@ -716,8 +724,12 @@ def simulate(robot: Union[RobotModel, str], controller: Union[Controller, str], 
             if mask is not None:
                 tau = tau * mask
             if has_contacts:      # the contact forces acting from t_k on (with the new torque)
+                text = np.zeros(n)
                 for j, f in enumerate(plant.forces(tk, q, dq, tau)):
                     FORCES[k, j] = f
+                    if f.any():
+                        text = text + resolved[j].point.jacobian(q).T @ f
+                TEXT[k] = text
             if obs is not None:
                 obs.update(q, dq, tau)
             Q[k] = q
@@ -798,6 +810,10 @@ def simulate(robot: Union[RobotModel, str], controller: Union[Controller, str], 
     if INT is not None:
         for j, name in enumerate(internal_names):
             internals[name] = INT[sl, j].copy()
+    ref_points = act_points = None
+    if getattr(controller, "point", None) is not None:
+        ref_points = controller.reference_points(QD[sl])
+        act_points = _pad3(np.array([controller.point.position(qk) for qk in Q[sl]]))
     forces = {}
     if FORCES is not None:
         for j, name in enumerate(contact_names):
@@ -829,6 +845,8 @@ def simulate(robot: Union[RobotModel, str], controller: Union[Controller, str], 
         t=t[sl].copy(), q=Q[sl].copy(), dq=DQ[sl].copy(), ddq=DDQ[sl].copy(), tau=TAU[sl].copy(),
         ref=QD[sl].copy(), dref=DQD[sl].copy(), ddref=DDQD[sl].copy(), actual=X, dactual=DX,
         internals=internals, forces=forces, force_axes=(resolved[0].point.axes if resolved else []),
+        tau_ext=None if TEXT is None else TEXT[sl].copy(), task_point=getattr(getattr(controller, "point", None), "name", None),
+        ref_points=ref_points, actual_points=act_points,
         message=message, rate=rate, wall_time=time.perf_counter() - wall0, loop_time=loop_time, settings=settings)
 
 
@@ -855,3 +873,86 @@ def _first_bad(q, dq, lo, hi, use_limits, max_speed, names) -> Optional[str]:
     if fast.size:
         return f"the speed of {names[fast[0]]} exceeded {max_speed:g} rad/s or m/s (the run diverged)"
     return None
+
+
+def _pad3(points: np.ndarray) -> np.ndarray:
+    """Task positions (N x 2 or N x 3) as world points (N x 3), z = 0 for planar robots."""
+    points = np.asarray(points, dtype=float)
+    if points.shape[1] == 3:
+        return points
+    return np.hstack([points, np.zeros((points.shape[0], 3 - points.shape[1]))])
+
+
+# ====================================================================== text input (command line, page)
+def parse_numbers(text: Optional[str], what: str) -> Optional[List[float]]:
+    """'0.1, -pi/4' -> [0.1, -0.785...]; None for None; a UserError names ``what`` otherwise.
+
+    >>> parse_numbers("1, pi/2", "--q0")
+    [1.0, 1.5707963267948966]
+    """
+    from .expressions import ExpressionError, parse_expression
+    if text is None:
+        return None
+    out = []
+    for part in str(text).split(","):
+        part = part.strip()
+        if not part:
+            continue
+        try:
+            out.append(float(parse_expression(part, allowed_names=())))
+        except (ExpressionError, TypeError) as exc:
+            raise SimulationError(f"{what}: '{part}' is not a number ({exc})") from None
+    if not out:
+        raise SimulationError(f"{what}: no values given")
+    return out
+
+
+def parse_assignments(text: Optional[str], what: str) -> Dict[str, float]:
+    """'m2=7, I2=0.3' -> {'m2': 7.0, 'I2': 0.3}.
+
+    >>> parse_assignments("m2=7, d2=1/2", "--plant")
+    {'m2': 7.0, 'd2': 0.5}
+    """
+    out = {}
+    for item in (text or "").split(","):
+        item = item.strip()
+        if not item:
+            continue
+        if "=" not in item:
+            raise SimulationError(f"{what}: expected name=value, got '{item}'")
+        key, raw = (x.strip() for x in item.split("=", 1))
+        out[key] = parse_numbers(raw, f"{what} {key}")[0]
+    return out
+
+
+def parse_contact(kind: str, text: str) -> Union[PointForce, Surface]:
+    """A force ('POINT F=fx,fy [from=t0] [to=t1] [at=x,y,z]') or a surface ('POINT normal=nx,ny
+    [offset=o] [k=stiffness d=damping] [at=x,y,z]') from text; POINT is a named point, or a body
+    with ``at=`` its local position.
+
+    >>> parse_contact("force", "link2 F=-10,0 from=1 at=0.4,0,0")
+    PointForce(point=('link2', [0.4, 0.0, 0.0]), force=[-10.0, 0.0], start=1.0, end=inf)
+    >>> parse_contact("surface", "ee normal=0,1 k=5000")
+    Surface(point='ee', normal=[0.0, 1.0], offset=None, stiffness=5000.0, damping=0.0)
+    """
+    keys = {"force": ("F", "from", "to", "at"), "surface": ("normal", "offset", "k", "d", "at")}[kind]
+    parts = text.split()
+    if not parts or "=" in parts[0]:
+        raise SimulationError(f"{kind}: start with the point's name, e.g. 'ee {keys[0]}=...'")
+    point, v = parts[0], {}
+    for item in parts[1:]:
+        if "=" not in item:
+            raise SimulationError(f"{kind}: expected key=value, got '{item}'")
+        key, raw = item.split("=", 1)
+        if key not in keys:
+            raise SimulationError(f"{kind}: unknown key '{key}' (allowed: {', '.join(keys)})")
+        v[key] = parse_numbers(raw, f"{kind} {key}")
+    where = (point, v["at"]) if "at" in v else point
+    if kind == "force":
+        if "F" not in v:
+            raise SimulationError("force: give the force, e.g. F=-10,0 (newtons, world frame)")
+        return PointForce(where, v["F"], v.get("from", [0.0])[0], v.get("to", [math.inf])[0])
+    if "normal" not in v:
+        raise SimulationError("surface: give the normal pointing to the free side, e.g. normal=0,1")
+    return Surface(where, v["normal"], v["offset"][0] if "offset" in v else None,
+                   v["k"][0] if "k" in v else None, v["d"][0] if "d" in v else 0.0)
