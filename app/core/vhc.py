@@ -383,7 +383,7 @@ class ConstraintState:
     q: np.ndarray          # Phi(theta)
     dq: np.ndarray         # Phi'(theta)   (joint speed = Phi' theta_dot)
     ddq: np.ndarray        # Phi''(theta)
-    u: np.ndarray          # arccos argument of eq. (3.14)
+    u: np.ndarray          # arccos argument of eq. (3.14) (reachable where |u| <= 1)
     alpha: Optional[np.ndarray] = None   # (3, B, N): M Phi'
     beta: Optional[np.ndarray] = None    # M Phi'' + C(Phi, Phi') Phi'
     gamma: Optional[np.ndarray] = None   # g + spring
@@ -523,8 +523,7 @@ class ThrowingArm:
                     f"{theta[row, idx[0]]:.4f} to {theta[row, idx[-1]]:.4f} m): the arccos argument of eq. (3.14) "
                     f"reaches {u[row, w]:.5f} at s = {s[w]:.4f} (theta = {theta[row, w]:.4f} m), outside [-1, 1]; "
                     f"the ball would have to be {1e3 * (abs(u[row, w]) - 1) * l3:.1f} mm beyond the reach of link 3")
-        u = np.clip(u, -clip, clip)
-        A3 = batch.branch * np.arccos(u)
+        A3 = batch.branch * np.arccos(np.clip(u, -clip, clip))
         sA1, cA1, sA12, cA12, sA3, cA3 = np.sin(A1), np.cos(A1), np.sin(A12), np.cos(A12), np.sin(A3), np.cos(A3)
         with np.errstate(divide="ignore", invalid="ignore"):
             A3d = -(1.0 + l1 * sA1 * phi1[1] + l2 * sA12 * w12) / (l3 * sA3)
@@ -960,8 +959,9 @@ def phase_portrait(arm: ThrowingArm, spec: ThrowSpec, theta_range: Optional[Tupl
         if idx.size < 3:
             continue
         th = theta[idx]
-        F1[idx] = cumulative_simpson(b[idx] / a[idx], x=th, initial=0.0)
-        F2[idx] = cumulative_simpson(np.exp(2 * F1[idx]) * 2 * c[idx] / a[idx], x=th, initial=0.0)
+        with np.errstate(over="ignore", invalid="ignore"):
+            F1[idx] = cumulative_simpson(b[idx] / a[idx], x=th, initial=0.0)
+            F2[idx] = cumulative_simpson(np.exp(2 * F1[idx]) * 2 * c[idx] / a[idx], x=th, initial=0.0)
     if initial is None:
         initial = [(float(t0), 0.0) for t0 in np.linspace(lo, hi, 9)[1:-1]]
         initial.append((spec.theta_b, spec.theta_dot_b))
@@ -974,9 +974,10 @@ def phase_portrait(arm: ThrowingArm, spec: ThrowSpec, theta_range: Optional[Tupl
             idx = np.flatnonzero(seg_id == sid)
             f1 = np.interp(th0, theta[idx], F1[idx])
             f2 = np.interp(th0, theta[idx], F2[idx])
-            const = thd0 ** 2 * np.exp(2 * f1) + f2
-            Y = (const - F2[idx]) * np.exp(-2 * F1[idx])
-            out[idx] = np.where(Y >= 0, np.sqrt(np.maximum(Y, 0)), np.nan)
+            with np.errstate(over="ignore", invalid="ignore"):
+                const = thd0 ** 2 * np.exp(2 * f1) + f2
+                Y = (const - F2[idx]) * np.exp(-2 * F1[idx])
+            out[idx] = np.where(np.isfinite(Y) & (Y >= 0), np.sqrt(np.abs(Y)), np.nan)
         curves.append(PhaseCurve(float(th0), float(thd0), theta, out))
     return PhasePortrait(theta, a, c, equilibria, singular, curves)
 

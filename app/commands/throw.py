@@ -1,0 +1,192 @@
+"""``python -m app throw CONFIG [--json] [--verify]``: a VHC throw of the throwing arm;
+``python -m app throw --optimize [--seed N] [--budget SECONDS]``: the longest throw under every limit;
+``python -m app throw --thesis``: the thesis's numbers beside the lab's.
+
+JSON output of a throw (a stable contract, keys are only ever added): theta_dot_e [m/s], duration [s],
+release_position [x, y] (m, y above the ground), release_velocity [vx, vy] (m/s, J(q) q'),
+distance_from_base, distance_from_release [m] (true velocity), distance_from_base_thesis,
+distance_from_release_thesis [m] (the thesis's convention: speed theta_dot along psi), feasible,
+violations (list of strings), max_speed_ratio [3] (max |q_i'| / limit), max_torque [2] (max |tau_i|,
+N m), plus release_velocity_thesis, release_speed, release_angle_deg, q_release, dq_release, model
+(parameter values used) and config (the throw, normalized). See docs/cli.md.
+"""
+from __future__ import annotations
+
+import json
+import math
+import sys
+
+import yaml
+
+NAME = "throw"
+HELP = "throws of the throwing arm: evaluate a VHC throw, optimize one, or reproduce the thesis"
+
+
+def add_arguments(p):
+    p.add_argument("config", nargs="?", help="throw file (YAML or JSON) or a shipped throw (throw1, throw2, throw3)")
+    p.add_argument("--json", action="store_true", help="print one JSON object (stable format)")
+    p.add_argument("--verify", action="store_true",
+                   help="also simulate the full 3-DOF arm (feedforward and computed torque) and report the drift")
+    p.add_argument("--optimize", action="store_true", help="search the longest throw under every limit")
+    p.add_argument("--seed", type=int, default=0, help="random seed of the optimizer (default 0)")
+    p.add_argument("--budget", type=float, default=40.0, help="optimizer time budget in seconds (default 40)")
+    p.add_argument("--objective", choices=("thesis", "physical"), default="thesis",
+                   help="distance to maximize: thesis convention (theta_dot along psi, default) or true velocity")
+    p.add_argument("--degree", type=int, default=6, help="Bezier degree for the optimizer (default 6)")
+    p.add_argument("--out", help="with --optimize: write the best throw to this YAML file")
+    p.add_argument("--thesis", action="store_true", help="the thesis's numbers beside the lab's")
+    p.add_argument("--robot", default="throwing_arm", help="robot file with the throwing arm's structure")
+
+
+def _floats(values, digits=10):
+    return [round(float(v), digits) for v in values]
+
+
+def throw_json(arm, throw, feasibility) -> dict:
+    rel = throw.release
+    return {
+        "theta_dot_e": throw.theta_dot_e,
+        "duration": throw.duration,
+        "release_position": _floats(rel.position),
+        "release_velocity": _floats(rel.velocity),
+        "distance_from_base": rel.distance_from_base,
+        "distance_from_release": rel.distance_from_release,
+        "distance_from_base_thesis": rel.distance_from_base_thesis,
+        "distance_from_release_thesis": rel.distance_from_release_thesis,
+        "feasible": feasibility.feasible,
+        "violations": feasibility.violations,
+        "max_speed_ratio": _floats(feasibility.max_speed_ratio),
+        "max_torque": _floats(feasibility.max_torque),
+        "release_velocity_thesis": _floats(rel.velocity_thesis),
+        "release_speed": rel.speed,
+        "release_angle_deg": rel.angle_deg,
+        "q_release": _floats(rel.q),
+        "dq_release": _floats(rel.dq),
+        "model": arm.values,
+        "config": throw.spec.to_config(),
+    }
+
+
+def verification_json(sim) -> dict:
+    rel = sim.release
+    return {"controller": sim.controller, "duration": sim.duration, "theta_dot_e": rel.theta_dot,
+            "max_wrist_drift": sim.max_wrist_drift, "max_ball_drift": sim.max_ball_drift,
+            "max_theta_dot_error": sim.max_theta_dot_error,
+            "distance_from_base": rel.distance_from_base, "distance_from_base_thesis": rel.distance_from_base_thesis,
+            "max_torque": _floats(abs(sim.tau).max(axis=1))}
+
+
+def _progress(enabled):
+    if not enabled:
+        return None
+    state = {"last": -1.0}
+
+    def report(fraction, message):
+        if fraction - state["last"] >= 0.05 or fraction >= 1.0:
+            state["last"] = fraction
+            print(f"[{100 * fraction:3.0f}%] {message}", file=sys.stderr, flush=True)
+    return report
+
+
+def _print_throw(cfg_title, arm, throw, feas, thesis, sims) -> None:
+    rel = throw.release
+    ref = lambda key, fmt: f"   (thesis: {thesis[key]:{fmt}})" if key in thesis else ""
+    print(cfg_title or "throw")
+    print(f"  theta_dot at release    {throw.theta_dot_e:.4f} m/s{ref('theta_dot_e', '.4g')}")
+    print(f"  duration                {throw.duration:.4f} s{ref('duration', '.4g')}")
+    print(f"  release point           x = {rel.position[0]:.5f} m, y = {rel.position[1]:.5f} m above the ground")
+    print(f"  ball velocity J(q) q'   {rel.speed:.4f} m/s at {rel.angle_deg:.2f} deg "
+          f"(thesis convention: {rel.theta_dot:.4f} m/s at psi = {throw.spec.psi_deg:.3f} deg)")
+    print(f"  distance from the base  {rel.distance_from_base:.4f} m; thesis convention "
+          f"{rel.distance_from_base_thesis:.4f} m{ref('distance_from_base', '.3g')}")
+    print(f"  from the release point  {rel.distance_from_release:.4f} m; thesis convention "
+          f"{rel.distance_from_release_thesis:.4f} m{ref('distance_from_release', '.3g')}")
+    print(f"  max speed / limit       " + "  ".join(f"{r:.4f}" for r in feas.max_speed_ratio))
+    print(f"  max |torque|            " + "  ".join(f"{t:.2f}" for t in feas.max_torque) + " N m")
+    print(f"  feasible (Table A.2)    {'yes' if feas.feasible else 'no'}")
+    for v in feas.violations:
+        print(f"    - {v}")
+    for sim in sims:
+        print(f"  full 3-DOF simulation ({sim.controller}): wrist drift {sim.max_wrist_drift:.2e} rad, ball drift "
+              f"{sim.max_ball_drift:.2e} m, theta_dot(theta) error {sim.max_theta_dot_error:.2e} (relative), "
+              f"thesis-convention distance {sim.release.distance_from_base_thesis:.4f} m")
+
+
+def _thesis(args, arm) -> int:
+    from app.core.vhc import thesis_comparison
+
+    rows = thesis_comparison(arm)
+    if args.json:
+        json.dump(rows, sys.stdout)
+        sys.stdout.write("\n")
+        return 0
+    print("The thesis (Lillehammer, NTNU 2014) beside the lab (robot file: reading B of Appendix A)")
+    for r in rows:
+        thesis = "-" if r["thesis"] is None else r["thesis"]
+        lab = "rejected" if r["lab"] is None else r["lab"]
+        print(f"  {r['quantity']}: thesis {thesis}, lab {lab}" + (f"  [{r['note']}]" if r["note"] else ""))
+    return 0
+
+
+def _optimize(args, arm) -> int:
+    from app.core.errors import UserError
+    from app.core.vhc import ThrowOptimizer, hand_estimate, simulate_full, speed_limit_bound
+
+    if args.budget <= 0:
+        raise UserError("--budget must be positive (seconds)")
+    opt = ThrowOptimizer(arm, degree=args.degree, objective=args.objective)
+    res = opt.run(seed=args.seed, budget=args.budget, progress=_progress(not args.json))
+    sims = [simulate_full(res.throw, c) for c in ("feedforward", "computed_torque")]
+    other = speed_limit_bound(arm, "physical" if args.objective == "thesis" else "thesis", seed=args.seed)
+    bounds = {res.bound.convention: res.bound.distance_from_base, other.convention: other.distance_from_base}
+    est = hand_estimate(arm)
+    if args.out:
+        with open(args.out, "w", encoding="utf-8") as fh:
+            yaml.safe_dump({"title": f"optimized throw (seed {args.seed}, objective {args.objective})",
+                            **res.spec.to_config()}, fh, sort_keys=False)
+    if args.json:
+        out = {"objective": res.objective, "distance_from_base": res.distance_from_base,
+               "config": res.spec.to_config(), "result": throw_json(arm, res.throw, res.feasibility),
+               "speed_limit_bound": bounds, "hand_estimate": {"speed": est.speed, "distance_from_base":
+                                                              est.distance_from_base},
+               "verification": [verification_json(s) for s in sims], "evaluations": res.evaluations,
+               "local_runs": res.local_runs, "elapsed": res.elapsed,
+               "evaluations_per_second": res.evaluations / res.elapsed}
+        json.dump(out, sys.stdout)
+        sys.stdout.write("\n")
+        return 0
+    print(f"optimized throw ({res.objective} convention), {res.evaluations} throw evaluations in "
+          f"{res.elapsed:.1f} s, {res.local_runs} local runs")
+    print(f"  distance from the base  {res.distance_from_base:.4f} m; the joint speed limits alone allow "
+          f"{res.bound.distance_from_base:.4f} m (hand estimate of the thesis: {est.distance_from_base:.3f} m)")
+    print("  config: " + json.dumps(res.spec.to_config()))
+    _print_throw("", arm, res.throw, res.feasibility, {}, sims)
+    return 0
+
+
+def run(args) -> int:
+    from app.core.errors import UserError
+    from app.core.vhc import ThrowingArm, load_throw_config, simulate_full
+
+    cfg = load_throw_config(args.config) if args.config else None
+    if args.degree < 2 or args.degree > 12:
+        raise UserError("--degree must be between 2 and 12")
+    arm = ThrowingArm(args.robot, cfg.model if cfg else None)
+    if args.thesis:
+        return _thesis(args, arm)
+    if args.optimize:
+        return _optimize(args, arm)
+    if cfg is None:
+        raise UserError("give a throw file or a shipped throw (throw1, throw2, throw3), or --optimize, or --thesis")
+    throw = arm.solve(cfg.spec)
+    feas = throw.check()
+    sims = [simulate_full(throw, c) for c in ("feedforward", "computed_torque")] if args.verify else []
+    if args.json:
+        out = throw_json(arm, throw, feas)
+        if sims:
+            out["verification"] = [verification_json(s) for s in sims]
+        json.dump(out, sys.stdout)
+        sys.stdout.write("\n")
+        return 0
+    _print_throw(cfg.title, arm, throw, feas, cfg.thesis, sims)
+    return 0
