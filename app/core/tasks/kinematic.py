@@ -16,7 +16,7 @@ Task kinds
   - ``expression``: a list of expressions of the coordinates r(q) (analytic Jacobian dr/dq),
   - ``matrix``: a numeric matrix given by the exercise,
   - ``stack``: names of earlier Jacobians to stack (extended / augmented Jacobian).
-  Options: ``q``, ``singularities: true`` (symbolic det J or det(J J^T) and the numeric
+  Options: ``q``, ``derivative: true`` (J'(q, dq) dq, answer ``<name>_dot_dq``), ``singularities: true`` (symbolic det J or det(J J^T) and the numeric
   rank, null space and left null space), ``minors: true`` (det J_{-i}), ``pinv: true``,
   ``position: true`` (the task value r(q)).
   Answers: ``<name>`` (symbolic), ``<name>_num``, ``<name>_rank``, ``<name>_null``,
@@ -257,6 +257,12 @@ def jacobian_task(ctx, spec):
         r_num = np.asarray(jac.evaluate(robot, d.substitute(r_sym), q, d.params), float).reshape(-1)
         ctx.step(f"Task value", f"r(q) = " + L(r_sym) + " = " + vec(r_num), "")
         ctx.answer(f"{name}_position", r_num)
+    if spec.get("derivative") and J_sym is not None:
+        Jdot = sum((J_sym.diff(qk) * dqk for qk, dqk in zip(robot.q, robot.dq)), sp.zeros(*J_sym.shape))
+        Jdot_dq = (Jdot * sp.Matrix(robot.dq)).applyfunc(sp.expand)
+        ctx.step("Velocity-dependent term", rf"\dot {_tex(name)}(q, \dot q)\,\dot q = " + L(Jdot_dq),
+                 "Second-order kinematics: p'' = J q'' + J' q'.")
+        ctx.answer(f"{name}_dot_dq", Jdot_dq)
     a = jac.analyze(J_num, float(spec.get("threshold", jac.DEFAULT_THRESHOLD)))
     ctx.answer(f"{name}_rank", a.rank)
     if spec.get("singularities"):
