@@ -16,7 +16,8 @@ Task kinds
   - ``expression``: a list of expressions of the coordinates r(q) (analytic Jacobian dr/dq),
   - ``matrix``: a numeric matrix given by the exercise,
   - ``stack``: names of earlier Jacobians to stack (extended / augmented Jacobian).
-  Options: ``q``, ``derivative: true`` (J'(q, dq) dq, answer ``<name>_dot_dq``), ``singularities: true`` (symbolic det J or det(J J^T) and the numeric
+  Options: ``q``, ``parameters`` (values for this task only, e.g. lengths in other units),
+  ``derivative: true`` (J'(q, dq) dq, answer ``<name>_dot_dq``), ``singularities: true`` (symbolic det J or det(J J^T) and the numeric
   rank, null space and left null space), ``minors: true`` (det J_{-i}), ``pinv: true``,
   ``position: true`` (the task value r(q)).
   Answers: ``<name>`` (symbolic), ``<name>_num``, ``<name>_rank``, ``<name>_null``,
@@ -241,9 +242,14 @@ def jacobian_task(ctx, spec):
             raise d._fail(f"{name}: {exc}") from None
         what = f"rows {', '.join(comps)} of {spec.get('point') or spec.get('body')}" + (f" in the frame of {spec['frame']}" if spec.get("frame") else "")
     q = None
+    params = d.params
+    for k, v in (spec.get("parameters") or {}).items():
+        if k not in params:
+            raise d._fail(f"{name}.parameters: {robot.name} has no parameter '{k}'")
+        params[k] = d.number(v, f"{name}.parameters.{k}")
     if J_num is None:
         q = d.configuration(spec.get("q"))
-        J_num = np.atleast_2d(jac.evaluate(robot, d.substitute(J_sym), q, d.params))
+        J_num = np.atleast_2d(jac.evaluate(robot, d.substitute(J_sym), q, params))
     d.store[name] = {"sym": J_sym, "num": J_num, "r": r_sym, "q": q}
     if J_sym is not None:
         ctx.step(f"Jacobian {name}", f"{_tex(name)}(q) = " + L(J_sym), f"{what.capitalize()}.")
@@ -254,7 +260,7 @@ def jacobian_task(ctx, spec):
              configuration=conf)
     ctx.answer(f"{name}_num", J_num)
     if spec.get("position") and r_sym is not None and q is not None:
-        r_num = np.asarray(jac.evaluate(robot, d.substitute(r_sym), q, d.params), float).reshape(-1)
+        r_num = np.asarray(jac.evaluate(robot, d.substitute(r_sym), q, params), float).reshape(-1)
         ctx.step(f"Task value", f"r(q) = " + L(r_sym) + " = " + vec(r_num), "")
         ctx.answer(f"{name}_position", r_num)
     if spec.get("derivative") and J_sym is not None:

@@ -179,7 +179,7 @@ def time_scaling_task(ctx, spec):
     scaled = ts.scaled_peaks
     if "samples" in spec:
         vals = [scaled[i, j] if j is not None else scaled[i] for i, j in enumerate(joints)]
-        ctx.step("Scaled torques", r"\tau_k = " + ",\ ".join(num(v) if np.ndim(v) == 0 else vec(v) for v in vals),
+        ctx.step("Scaled torques", r"\tau_k = " + r",\ ".join(num(v) if np.ndim(v) == 0 else vec(v) for v in vals),
                  "At the scaled instants t' = k t; the critical joint reaches its bound exactly.")
         ctx.answer("tau_scaled", np.array(vals, dtype=float))
     else:

@@ -11,7 +11,8 @@ weighted-pseudoinverse identities. Values follow the conventions of ``kinematic`
   scaling keeping the null-space term), ``check`` ({jacobian name: task vector}: errors on other
   tasks), ``q``.
   Answers: ``<name>``, ``<name>_error``, ``<name>_error_norm``, ``<name>_norm``, ``<name>_pinv``, ``<name>_task``,
-  ``<name>_null``, ``<name>_projector``, ``<name>_gradient``, ``<name>_cost`` (1/2 q'^T W q'),
+  ``<name>_null``, ``<name>_projector``, ``<name>_gradient``, ``<name>_objective`` (H at q),
+  ``<name>_cost`` (1/2 q'^T W q', with W the weights or the option ``cost``), ``<name>_half_norm2``,
   ``<name>_scale``/``<name>_unscaled`` (with bounds), ``<name>_error_<J>`` and
   ``<name>_error_<J>_norm`` (checks).
 ``task_priority``: ``tasks`` [{jacobian, task}, ...] by decreasing priority. Answers ``<name>``,
@@ -55,7 +56,7 @@ def _gradient(d, spec, q, n):
         grad = sp.Matrix([sp.diff(H, s) for s in robot.q])
         values = {s: float(v) for s, v in zip(robot.q, q)}
         g = np.array([float(e.xreplace(values)) for e in grad])
-        return g, sp.latex(H)
+        return g, sp.latex(H), float(H.xreplace(values))
     if "joint_range" in spec:
         rng = spec["joint_range"]
         if rng == "robot" or rng is True:
@@ -68,7 +69,8 @@ def _gradient(d, spec, q, n):
             lo, hi = d.bounds(rng, n, "gradient.joint_range")
         mid, width = (lo + hi) / 2, hi - lo
         g = (q - mid) / (n * width ** 2)
-        return g, r"H_{range} = \frac{1}{2n}\sum_i \left(\frac{q_i - \bar q_i}{q_{M,i} - q_{m,i}}\right)^2"
+        value = float(np.sum(((q - mid) / width) ** 2) / (2 * n))
+        return g, r"H_{range} = \frac{1}{2n}\sum_i \left(\frac{q_i - \bar q_i}{q_{M,i} - q_{m,i}}\right)^2", value
     raise d._fail("gradient: expected {objective: expression} or {joint_range: {lower, upper}}")
 
 
@@ -88,7 +90,7 @@ def pseudoinverse_task(ctx, spec):
     m, n = J.shape
     v = d.array(spec.get("task", "v"), "task").reshape(-1)
     needs_q = any(k in spec for k in ("gradient",)) or (isinstance(spec.get("weights"), str) and spec["weights"] == "inertia") \
-        or _has_text(spec.get("weights"))
+        or _has_text(spec.get("weights")) or _has_text(spec.get("cost"))
     q = d.configuration(spec.get("q")) if needs_q else None
     W = _weights(d, spec["weights"], q, n) if spec.get("weights") is not None else None
     if W is not None:
@@ -97,7 +99,7 @@ def pseudoinverse_task(ctx, spec):
     grad = None
     if "gradient" in spec:
         gspec = spec["gradient"]
-        grad, H_tex = _gradient(d, gspec, q, n)
+        grad, H_tex, H_value = _gradient(d, gspec, q, n)
         alpha = d.number(gspec.get("alpha", 1.0), "gradient.alpha")
         sign = 1.0 if gspec.get("maximize") else -1.0
         preferred = sign * alpha * grad
@@ -105,6 +107,7 @@ def pseudoinverse_task(ctx, spec):
                  ("Ascend" if sign > 0 else "Descend") + f" the gradient with step {num(alpha)}, projected in the null space of the task.",
                  vectors=[{"label": "grad H", "joint_space": True, "vector": grad.tolist(), "role": "gradient"}])
         ctx.answer(f"{name}_gradient", grad)
+        ctx.answer(f"{name}_objective", H_value)
     fixed = None
     if "fixed" in spec:
         fixed = {int(k) - 1: d.number(v, f"fixed.{k}") for k, v in spec["fixed"].items()}
@@ -121,8 +124,10 @@ def pseudoinverse_task(ctx, spec):
     ctx.answer(f"{name}_task", res.dq_task)
     ctx.answer(f"{name}_null", res.dq_null)
     ctx.answer(f"{name}_projector", res.projector)
-    if W is not None:
-        ctx.answer(f"{name}_cost", float(0.5 * res.dq @ W @ res.dq))
+    Wc = _weights(d, spec["cost"], q if q is not None else d.configuration(spec.get("q")), n) if "cost" in spec else W
+    if Wc is not None:
+        ctx.answer(f"{name}_cost", float(0.5 * res.dq @ Wc @ res.dq))
+    ctx.answer(f"{name}_half_norm2", float(0.5 * res.dq @ res.dq))
     if res.scale is not None:
         ctx.answer(f"{name}_scale", res.scale)
         ctx.answer(f"{name}_unscaled", res.dq_unscaled)
@@ -175,7 +180,7 @@ def reduced_gradient_task(ctx, spec):
     J = d.jacobian(spec.get("jacobian", "J"))
     v = d.array(spec.get("task", "v"), "task").reshape(-1)
     q = d.configuration(spec.get("q"))
-    grad, H_tex = _gradient(d, spec.get("gradient") or {}, q, J.shape[1])
+    grad, H_tex, _ = _gradient(d, spec.get("gradient") or {}, q, J.shape[1])
     ctx.step("Objective gradient", H_tex + r",\quad \nabla_q H = " + vec(grad), "")
     rg = red.reduced_gradient(J, v, grad, d.number(spec.get("alpha", 1.0)), bool(spec.get("maximize", True)))
     ctx.steps.extend(rg.steps)
