@@ -14,7 +14,8 @@ Task kinds (options -> answers):
 - ``gravity_balance``: parameter values that make g(q) = 0 for every q. Options: ``solve_for``
   (parameters to choose, e.g. CoM distances), ``zero`` (parameters set to 0 while balancing,
   e.g. a payload). Answers: ``balance`` (values in the order of ``solve_for``),
-  ``balance_<name>`` (each value), ``g_balanced`` (g with those values, ``zero`` not applied).
+  ``balance_<name>`` (each value), ``g_balanced`` (g with those values, ``zero`` not applied),
+  ``g_zeroed`` (g with the ``zero`` parameters at 0, before balancing).
 - ``factorizations``: the Christoffel factorization S and a second one, S', that puts each product
   q'_j q'_k (j <= k) in column k; whether M' - 2S is skew-symmetric for each. Answers: ``S``,
   ``S_alt``, ``Mdot``, ``Mdot_minus_2S``, ``Mdot_minus_2S_alt``, ``skew_S``, ``skew_S_alt``,
@@ -26,9 +27,9 @@ Task kinds (options -> answers):
 - ``point_kinematics``: a point of the robot (a named point, or ``{body, at}`` whose position may
   hold free symbols such as a contact abscissa). Options: ``point``, ``components`` (default
   [0, 1]: x, y), ``force`` (a force at the point, list of expressions), ``name`` (answer label,
-  default the point's name or "point"). Answers: ``p_<name>``, ``J_<name>``, ``minors_<name>``
-  (determinants of J without column k, when J has one column more than rows), ``tau_<name>``
-  (J^T F).
+  default the point's name or "point"). Answers: ``p_<name>``, ``J_<name>``, ``det_<name>``
+  (square J), ``minors_<name>`` (determinants of J without column k, when J has one column more
+  than rows), ``tau_<name>`` (J^T F).
 - ``cartesian_inertia``: M_p = J^-T M J^-1 of a point with a square Jacobian. Options: ``point``,
   ``components``, ``at`` (configuration for the numeric values, parameters from ``given``).
   Answers: ``J``, ``det_J``, ``M_p``, ``M_at``, ``M_p_at``, ``M_p_inv_at``.
@@ -133,10 +134,14 @@ class _Analysis:
         return out
 
     def parameter_values(self) -> Dict[sp.Symbol, float]:
+        """Numbers of the robot's parameters (the exercise's ``given`` first, then the file's
+        defaults) and of the other numeric data the exercise gives (e.g. a gain gamma)."""
         values = {}
+        for name, value in self.ctx.given.items():
+            if isinstance(value, (int, float, str)) and str(name).isidentifier():
+                values[symbol(str(name))] = self.number(value, f"given.{name}")
         for name, p in self.robot.parameters.items():
-            value = self.ctx.given.get(name, p.value)
-            values[p.symbol] = self.number(value, f"given.{name}") if not isinstance(value, (int, float)) else float(value)
+            values.setdefault(p.symbol, p.value)
         return values
 
     def point(self, option: str = "point") -> Tuple[Optional[str], sp.Matrix, str]:
@@ -513,6 +518,8 @@ def gravity_balance_task(ctx, spec):
                bodies=[b.name for b in a.robot.bodies])
     g_bal = a.tidy_matrix(a.g.subs(dict(zip(unknowns, values))))
     if zero:
+        a.answer("g_zeroed", a.tidy_matrix(g))
+    if zero:
         a.ctx.step("Gravity of the balanced robot", rf"g(q) = {a.L(g_bal)}",
                    "What remains once the links are balanced: only the terms of "
                    + ", ".join(s.name for s in zero) + ".")
@@ -626,6 +633,11 @@ def point_kinematics_task(ctx, spec):
                "p' = J q'.", bodies=bodies)
     a.answer(f"p_{label}", p)
     a.answer(f"J_{label}", J)
+    if J.cols == J.rows:
+        det = a.tidy(J.det())
+        a.ctx.step("Determinant of the Jacobian", rf"\det J_{{{label}}} = {a.L(det)}",
+                   "J is singular where it vanishes.", bodies=bodies)
+        a.answer(f"det_{label}", det)
     if J.cols == J.rows + 1:
         minors = sp.Matrix([a.tidy(J[:, [j for j in range(J.cols) if j != k]].det()) for k in range(J.cols)])
         a.ctx.step("Minors of the Jacobian", r",\quad ".join(rf"\det J_{{-{k + 1}}} = {a.L(m)}" for k, m in enumerate(minors)),
