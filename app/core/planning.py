@@ -7,9 +7,9 @@ acceleration phase Ts. ``TimingLaw`` evaluates position, velocity and accelerati
 Minimum time:
 - ``trapezoid_min_time``: bounds V, A (bang-coast-bang, or bang-bang when the coast vanishes),
   also with different acceleration and deceleration bounds (``bang_bang_min_time``);
-- ``minimum_time``: the smallest T of a given law class for which a torque (any function of the
-  state, e.g. inverse dynamics with gravity) stays within bounds, by bisection on T with the
-  switching instants sampled exactly;
+- ``minimum_time``: the smallest T of a law class of fixed shape for which the inverse-dynamics
+  torque (gravity included) stays within bounds, exactly: it is the time scaling of the unit-time
+  motion, sampled with the switching instants;
 - ``uniform_time_scaling``: slowing a trajectory down by k (t' = k t) divides the inertial and
   Coriolis torques by k^2 and leaves gravity unchanged; the smallest feasible k.
 
@@ -216,40 +216,29 @@ class MinimumTime:
 
 
 def minimum_time(make_law: Callable[[float], TimingLaw], torque: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray],
-                 bounds: Sequence[float], T_low: float = 1e-3, T_high: float = 1e3, samples: int = 4001,
-                 tolerance: float = 1e-10) -> MinimumTime:
-    """Smallest T such that |torque(p, v, a)_i| <= bounds_i along the law built by ``make_law(T)``.
+                 gravity: Callable[[np.ndarray], np.ndarray], bounds: Sequence[float], samples: int = 4001) -> MinimumTime:
+    """Smallest T such that |torque(p, v, a)_i| <= bounds_i along ``make_law(T)``, for a law class
+    of fixed shape (cubic, quintic, bang-bang, trapezoid with fixed Ts/T): along the normalized
+    motion the torque is tau = (tau_1 - g)/T^2 + g, with tau_1 the torque for T = 1, so T_min is the
+    uniform time scaling of the unit-time motion (``uniform_time_scaling`` without the k >= 1 floor).
 
-    ``torque`` maps arrays of positions, velocities, accelerations along the path (shape (k,)) to
-    torques (shape (k, n)). Bisection on T (the ratio max |tau|/bound decreases with T for laws
-    whose inertial part scales with 1/T^2)."""
-    bounds = np.asarray(bounds, float).reshape(-1)
-
-    def ratio(T):
-        law = make_law(T)
-        t = sample_times(law, samples)
-        p, v, a = law(t)
-        tau = np.atleast_2d(np.asarray(torque(p, v, a), float))
-        if tau.shape[0] != t.size:
-            tau = tau.T
-        r = np.abs(tau) / bounds
-        k = np.unravel_index(np.argmax(r), r.shape)
-        return float(r[k]), float(t[k[0]]), int(k[1]) + 1, law
-
-    lo, hi = T_low, T_high
-    if ratio(hi)[0] > 1:
-        raise PlanningError("no duration makes the motion feasible (the static torque alone exceeds the bounds)")
-    while hi - lo > tolerance * hi:
-        mid = 0.5 * (lo + hi)
-        if ratio(mid)[0] > 1:
-            lo = mid
-        else:
-            hi = mid
-    peak, tp, joint, law = ratio(hi)
-    steps = law.steps() + [Step("Minimum time", rf"T_{{min}} = {num(hi)}\ \mathrm{{s}}",
-                                f"The torque of joint {joint} reaches its bound at t = {num(tp)} s; any shorter T violates it.",
+    ``torque`` maps arrays of path positions, velocities, accelerations (shape (k,)) to torques
+    (k, n); ``gravity`` maps path positions to the gravity torques (k, n)."""
+    unit = make_law(1.0)
+    t = sample_times(unit, samples)
+    p, v, a = unit(t)
+    tau = np.atleast_2d(np.asarray(torque(p, v, a), float))
+    g = np.atleast_2d(np.asarray(gravity(p), float))
+    ts = uniform_time_scaling(tau, g, bounds, floor=0.0)
+    T = ts.k
+    law = make_law(T)
+    ratio = np.abs(ts.scaled_peaks) / np.asarray(bounds, float)
+    k, joint = np.unravel_index(np.argmax(ratio), ratio.shape)
+    tp = float(t[k] * T)
+    steps = law.steps() + [Step("Minimum time", rf"T_{{min}} = {num(T)}\ \mathrm{{s}}",
+                                f"With T the inertial torques scale as 1/T^2; joint {joint + 1} reaches its bound at t = {num(tp)} s.",
                                 {"profile": {"kind": law.kind, "T": law.T, "Ts": law.Ts, "V": law.V, "A": law.A}})]
-    return MinimumTime(hi, law, peak, tp, joint, steps)
+    return MinimumTime(T, law, float(ratio[k, joint]), tp, int(joint) + 1, steps)
 
 
 @dataclass
@@ -260,8 +249,9 @@ class TimeScaling:
     steps: List[Step]
 
 
-def uniform_time_scaling(tau, gravity, bounds, lower_bounds=None) -> TimeScaling:
-    """Smallest k >= 1 such that tau_k = (tau - g)/k^2 + g stays within the bounds at every sample.
+def uniform_time_scaling(tau, gravity, bounds, lower_bounds=None, floor: float = 1.0) -> TimeScaling:
+    """Smallest k >= floor (1: only slowing down) such that tau_k = (tau - g)/k^2 + g stays within
+    the bounds at every sample.
 
     ``tau`` and ``gravity`` are arrays (samples x n) of the nominal torque and of its gravity part;
     ``bounds`` the upper bounds (and -bounds the lower ones unless ``lower_bounds`` is given).
@@ -275,7 +265,7 @@ def uniform_time_scaling(tau, gravity, bounds, lower_bounds=None) -> TimeScaling
     hi = np.asarray(bounds, float).reshape(-1)
     lo = -hi if lower_bounds is None else np.asarray(lower_bounds, float).reshape(-1)
     dyn = tau - g
-    k2 = np.ones(tau.shape)
+    k2 = np.full(tau.shape, floor ** 2)
     for idx in np.ndindex(tau.shape):
         a, gi, j = dyn[idx], g[idx], idx[1]
         if a > 0:
@@ -286,7 +276,7 @@ def uniform_time_scaling(tau, gravity, bounds, lower_bounds=None) -> TimeScaling
             continue
         if room <= 0:
             raise PlanningError(f"joint {j + 1}: gravity alone ({gi:g}) reaches the torque bound; no time scaling helps")
-        k2[idx] = max(1.0, abs(a) / room)
+        k2[idx] = max(floor ** 2, abs(a) / room)
     per_joint = [float(math.sqrt(k2[:, j].max())) for j in range(tau.shape[1])]
     k = max(per_joint)
     scaled = dyn / k ** 2 + g

@@ -13,7 +13,8 @@ A *law* spec is {type: cubic | quintic | bang_bang | trapezoidal, T, V, A, Ts, r
   for a ``trajectory`` ({law with T, start, goal}) or for torque ``samples`` [{q, tau}] or
   [{q, joint, tau}] (the nominal peaks and where they occur; gravity is computed at q unless given
   as ``g``). Answers ``k``,
-  ``k_joints``, ``T_scaled`` (with ``T``), ``tau_nominal_max`` (trajectory), ``tau_scaled``.
+  ``k_joints``, ``T_scaled`` (with ``T``), ``tau_nominal_max`` and ``tau_scaled_max`` (trajectory),
+  ``g_samples``, ``g_peaks`` and ``tau_scaled`` (samples: at the sampled joint).
 ``decoupled_minimum_time``: robots with constant diagonal M and constant g (Cartesian): each joint
   moves bang-bang between ``start`` and ``goal`` with its own acceleration and deceleration bounds
   from ``torque`` bounds. Answers ``T_<coordinate>``, ``T_<coordinate>_switch``, ``T_star``,
@@ -102,13 +103,15 @@ def minimum_time_task(ctx, spec):
     d = data(ctx)
     q0, delta = _joint_path(d, spec)
     bounds = d.array(spec["torque"], "torque") * np.ones(d.robot.n)
-    torque, _ = _torque_along(d, q0, delta)
+    torque, gravity = _torque_along(d, q0, delta)
     lspec = dict(spec.get("law") or {})
     lspec.pop("T", None)
+    if any(k in lspec for k in ("V", "A", "Ts")):
+        raise d._fail("minimum_time: the law class must have a fixed shape (give ratio = Ts/T, not V, A or Ts)")
     ctx.step("Inverse dynamics along the path", r"\tau(t) = M(q)\ddot q + c(q, \dot q) + g(q),\quad q = q_0 + \sigma(t)\,\Delta q",
              f"Torque bounds {vec(bounds)}; the law class is {lspec.get('type')}.")
     try:
-        res = pl.minimum_time(lambda T: _law(d, lspec, 1.0, T), torque, bounds)
+        res = pl.minimum_time(lambda T: _law(d, lspec, 1.0, T), torque, gravity, bounds)
     except UserError as exc:
         raise d._fail(str(exc)) from None
     ctx.steps.extend(res.steps)
@@ -179,6 +182,7 @@ def time_scaling_task(ctx, spec):
     scaled = ts.scaled_peaks
     if "samples" in spec:
         vals = [scaled[i, j] if j is not None else scaled[i] for i, j in enumerate(joints)]
+        ctx.answer("g_peaks", np.array([g[i, j] if j is not None else g[i] for i, j in enumerate(joints)], dtype=float))
         ctx.step("Scaled torques", r"\tau_k = " + r",\ ".join(num(v) if np.ndim(v) == 0 else vec(v) for v in vals),
                  "At the scaled instants t' = k t; the critical joint reaches its bound exactly.")
         ctx.answer("tau_scaled", np.array(vals, dtype=float))
