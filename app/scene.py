@@ -60,6 +60,7 @@ class Part:
     role: str                    # link | joint | sleeve | rod | com | base
     body: Optional[str] = None   # the body this part shows (links, CoMs) or whose joint it is
     opacity: float = 1.0
+    segment: Optional[Tuple[np.ndarray, np.ndarray]] = None   # a bar's end points (links)
 
 
 @dataclass
@@ -320,7 +321,8 @@ class RobotDrawing:
         for idx, body in enumerate(robot.bodies):
             color = parse_color(body.color) or PALETTE[idx % len(PALETTE)]
             for k, (a, b) in enumerate(self.segments[body.name]):
-                self.parts.append(Part(f"bar{k}", body.name, capsule(a, b, r), color, "link", body.name))
+                self.parts.append(Part(f"bar{k}", body.name, capsule(a, b, r), color, "link", body.name,
+                                       segment=(a, b)))
             j = body.joint
             if j.type != "fixed":
                 u = _axis(j.axis)
@@ -335,7 +337,8 @@ class RobotDrawing:
                     # the rod spans every position the sleeve can take relative to the child
                     a = Rp.T @ (u * (-hi - 3 * r) - pp)
                     b = Rp.T @ (u * (-lo + 3 * r) - pp)
-                    self.parts.append(Part("rod", body.name, capsule(a, b, 0.85 * r), color, "link", body.name))
+                    self.parts.append(Part("rod", body.name, capsule(a, b, 0.85 * r), color, "link", body.name,
+                                           segment=(a, b)))
                 perp = np.cross(u, [1.0, 0.0, 0.0] if abs(u[0]) < 0.9 else [0.0, 1.0, 0.0])
                 perp = perp / np.linalg.norm(perp) + np.cross(u, perp / np.linalg.norm(perp))
                 offset = 1.3 * r * perp + (1.8 * r * u if j.type == "revolute" else 0)

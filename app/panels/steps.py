@@ -1,5 +1,7 @@
 """Steps panel: the derivation of the model one step at a time (energies per link, Lagrangian,
-Christoffel symbols, M, C, g, regressor), with the step's links or joints lit up in 3D."""
+Christoffel symbols, M, C, g, regressor), with the step's links or joints lit up in 3D.
+
+``session.state["steps"]["show"](k)`` opens step k (0-based) from outside, e.g. for screenshots."""
 from __future__ import annotations
 
 import html
@@ -46,6 +48,8 @@ def build(session) -> None:
             jump.value = titles[k]
         if light:
             session.scene.highlight(step.highlight.get("bodies", []), step.highlight.get("joints", []))
+
+    state["show"] = show
 
     @buttons.on_click
     def _(event):

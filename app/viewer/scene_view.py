@@ -36,6 +36,7 @@ class SceneView:
         self.client = client
         self.scene = client.scene
         self.drawing: Optional[RobotDrawing] = None
+        self.q: Optional[np.ndarray] = None          # the configuration drawn
         self._lock = threading.RLock()
         self._frames: Dict[str, object] = {}
         self._meshes: List[Tuple[object, object]] = []       # (handle, part)
@@ -125,8 +126,8 @@ class SceneView:
     def _gravity_arrow(self, drawing: RobotDrawing, framing: Framing):
         up = drawing.up
         length = 0.22 * framing.radius
-        if drawing.robot.is_planar:
-            side = np.cross(up, [0.0, 0.0, 1.0])
+        if drawing.robot.is_planar:      # on the left: the side panel covers the right
+            side = np.cross([0.0, 0.0, 1.0], up)
         else:
             side = np.cross(up, [1.0, 0.0, 0.0]) if abs(up[0]) < 0.9 else np.cross(up, [0.0, 1.0, 0.0])
         if np.linalg.norm(side) < 1e-9:     # gravity normal to a horizontal plane: point into it
@@ -151,6 +152,7 @@ class SceneView:
         with self._lock:
             if self.drawing is None:
                 return
+            self.q = np.asarray(q, dtype=float).copy()
             poses = self.drawing.poses(q)
             with self.client.atomic():
                 for attach, handle in self._frames.items():
@@ -296,7 +298,8 @@ class SceneView:
 
     # ------------------------------------------------------------------ camera
     def frame_camera(self) -> None:
-        """Point the camera at the whole robot; planar robots square-on to their plane. Before the
+        """Point the camera at the robot as drawn now (with a margin for moving it); planar robots
+        square-on to their plane. Before the
         browser has reported its camera, framing waits for that first report."""
         with self._lock:
             if self.drawing is None:
@@ -313,7 +316,7 @@ class SceneView:
             width = camera.image_width if camera.image_height > 0 else 1280
             aspect = width / camera.image_height if camera.image_height > 0 else 16 / 9
             occluded = SIDE_PANEL_PX / width if width > 2.2 * SIDE_PANEL_PX else 0.0
-            position, look_at, up = camera_pose(self.drawing.framing(), fov=fov, aspect=aspect,
+            position, look_at, up = camera_pose(self.drawing.framing(self.q), fov=fov, aspect=aspect,
                                                 occluded_right=occluded)
             with self.client.atomic():
                 camera.fov = float(fov)

@@ -67,6 +67,51 @@ def select_tab(page, title: str) -> None:
     page.get_by_role("tab", name=title, exact=True).first.click()
 
 
+def scroll_to_tab(page, title: str) -> None:
+    """Scroll the side panel so that a tab's content starts at its top."""
+    page.evaluate("""(t) => { const el = [...document.querySelectorAll('[role=tab]')]
+                             .find(e => e.textContent.trim() === t);
+                             if (el) el.scrollIntoView({block: 'start'}); }""", title)
+
+
+def field(page, label: str):
+    """The input of a labelled row of the side panel (a parameter field, a slider's number box)."""
+    return page.locator(f"xpath=//label[normalize-space()='{label}']"
+                        "/ancestor::div[contains(@class,'mantine-Flex-root')][1]//input").first
+
+
+def slider_thumb(page, label: str):
+    """The thumb of a labelled slider (focus it and press keys: ArrowRight, End, ...)."""
+    return page.locator(f"xpath=//label[normalize-space()='{label}']"
+                        "/ancestor::div[contains(@class,'mantine-Flex-root')][1]//*[@role='slider']").first
+
+
+def image(page):
+    """The page as an RGB numpy array (H x W x 3)."""
+    import imageio.v3 as iio
+    return iio.imread(page.screenshot(), extension=".png")[:, :, :3]
+
+
+def scene_node_names(page):
+    """Names of the scene nodes the browser holds (viser's test hook)."""
+    return page.evaluate("() => Object.keys(window.__viserSceneTree.getState())")
+
+
+def project(camera, points):
+    """Pixel coordinates (x right, y down) of world points in a tab's camera (viser's camera
+    frame follows OpenCV: z forward, y down)."""
+    import numpy as np
+    w, x, y, z = camera.wxyz
+    R = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                  [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                  [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+    cam = (np.asarray(points, float) - camera.position) @ R
+    f = camera.image_height / 2 / np.tan(camera.fov / 2)
+    u = camera.image_width / 2 + f * cam[:, 0] / cam[:, 2]
+    v = camera.image_height / 2 + f * cam[:, 1] / cam[:, 2]
+    return np.stack([u, v], axis=1)
+
+
 def hide_notifications(page) -> None:
     page.add_style_tag(content=HIDE_NOTIFICATIONS_CSS)
 
@@ -78,11 +123,13 @@ def settle(page, seconds: float = 1.0) -> None:
 
 def capture(robot: str, out: str | Path, panel: Optional[str] = None,
             setup: Optional[Callable] = None, action: Optional[Callable] = None,
-            width: int = WIDTH, height: int = HEIGHT, lab=None, browser: Optional[Browser] = None) -> Path:
+            width: int = WIDTH, height: int = HEIGHT, lab=None, browser: Optional[Browser] = None,
+            scroll: bool = True) -> Path:
     """Save a picture of the page showing ``robot`` with the tab ``panel`` open.
 
     ``setup(session)`` runs on the server once the robot's panels are ready (set q, open a step,
-    load a run); ``action(page)`` runs in the browser before the shot (clicks, scrolling). A lab
+    load a run); ``action(page)`` runs in the browser before the shot (clicks, scrolling). With
+    ``scroll`` the side panel is scrolled so that the panel's tab starts at its top. A lab
     server (``LabServer``) and a ``Browser`` may be passed to reuse them across pictures."""
     from app.viewer.server import LabServer
     own_lab = lab is None
@@ -105,6 +152,10 @@ def capture(robot: str, out: str | Path, panel: Optional[str] = None,
                 setup(session)
                 session.ready.wait(60)
                 wait_ready(page, session.robot_name)
+                session.scene.frame_camera()
+            if panel and scroll:
+                settle(page, 0.3)
+                scroll_to_tab(page, panel)
             if action is not None:
                 action(page)
             settle(page, 1.5)

@@ -34,6 +34,7 @@ GROUP_LABELS = {"exam": "Exam robots", "throwing": "Throwing arm", "catching": "
                 "other": "Other robots"}
 
 NEGATIVE_NOT_ALLOWED = ("mass", "inertia", "stiffness", "friction")
+REJECT_DELAY = 0.8     # seconds of quiet before a bad parameter value is refused
 
 
 def parse_parameter(robot, name: str, text: str) -> float:
@@ -123,6 +124,7 @@ class Session:
         self.params: Dict[str, float] = {}
         self.state: Dict[str, object] = {}      # panels' state kept across robot switches
         self.generation = 0
+        self.closed = False
         self.ready = threading.Event()          # set when the robot's panels are built
         self._lock = threading.RLock()
         self._executor = ThreadPoolExecutor(max_workers=2, thread_name_prefix=f"session{client.client_id}")
@@ -130,6 +132,7 @@ class Session:
         self._owner = threading.local()
         self._sliders: List = []
         self._param_fields: Dict[str, object] = {}
+        self._reject_timers: Dict[str, threading.Timer] = {}
         self._tabs = None
         self._tab_handles: Dict[str, object] = {}
         self._tab_titles: List[str] = []
@@ -406,23 +409,42 @@ class Session:
                 self._param_fields[name] = field
 
     def _parameter_typed(self, name: str, event) -> None:
+        """A parameter field changed (the browser sends every keystroke): a valid value is applied
+        at once; an invalid one is refused, with a message and the last good value restored, only
+        after the typing pauses, so that "-", "1e" or an emptied field are not rejected mid-word."""
         if event.client is None:
             return
         field = event.target
         with self._lock:
             if self._param_fields.get(name) is not field:
                 return
+            timer = self._reject_timers.pop(name, None)
+            if timer is not None:
+                timer.cancel()
             try:
                 value = parse_parameter(self.robot, name, field.value)
-            except ParameterError as exc:
-                self.notify("Parameter not changed", f"{exc}; keeping {name} = {format_number(self.params[name])}",
-                            error=True)
-                field.value = format_number(self.params[name])
+            except ParameterError:
+                timer = threading.Timer(REJECT_DELAY, self._reject_parameter, (name, field))
+                timer.daemon = True
+                self._reject_timers[name] = timer
+                timer.start()
                 return
             if value == self.params[name]:
                 return
             self.params[name] = value
         self._param_job.request()
+
+    def _reject_parameter(self, name: str, field) -> None:
+        with self._lock:
+            if self._param_fields.get(name) is not field:
+                return
+            try:
+                parse_parameter(self.robot, name, field.value)
+                return
+            except ParameterError as exc:
+                message = f"{exc}; keeping {name} = {format_number(self.params[name])}"
+            field.value = format_number(self.params[name])
+        self.notify("Parameter not changed", message, error=True)
 
     def _apply_parameters(self) -> None:
         with self._lock:
@@ -440,7 +462,7 @@ class Session:
         with self._lock:
             robot, values, generation = self.robot, dict(self.params), self.generation
             ready = self.numeric is not None
-        if not ready:
+        if not ready or self.closed:
             return
         self._badge.content = self._badge_html("pending", "pinocchio cross-check: running")
         try:
@@ -455,7 +477,7 @@ class Session:
                 errs = ", ".join(f"{k} {v:.1e}" for k, v in result.max_rel_error.items())
                 text, state = f"pinocchio disagrees: {errs}", "bad"
         with self._lock:
-            if generation == self.generation and values == self.params:
+            if generation == self.generation and values == self.params and not self.closed:
                 self._badge.content = self._badge_html(state, text)
 
     # ================================================================== panels
@@ -576,4 +598,8 @@ class Session:
                 f'{" — " + html.escape(message) if message else ""}</div>')
 
     def close(self) -> None:
+        """The browser tab went away: stop background work and GUI updates."""
+        self.closed = True
+        for timer in self._reject_timers.values():
+            timer.cancel()
         self._executor.shutdown(wait=False, cancel_futures=True)

@@ -1,0 +1,220 @@
+"""The real page in headless Chromium (Debian's /usr/bin/chromium through Playwright).
+
+One lab server and one browser serve the whole module; every test opens its own browser context
+(an independent tab with its own session)."""
+import colorsys
+import time
+
+import numpy as np
+import pytest
+
+from app.scene import PALETTE
+from app.viewer import screenshot as shots
+from app.viewer.server import LabServer
+
+
+@pytest.fixture(scope="module")
+def lab():
+    server = LabServer(port=0, verbose=False)
+    yield server
+    server.stop()
+
+
+@pytest.fixture(scope="module")
+def browser():
+    with shots.Browser() as b:
+        yield b
+
+
+def open_tab(lab, browser, robot="planar_2r", hide=True):
+    """A new browser tab showing ``robot``; returns (page, its server-side session)."""
+    before = set(lab.sessions)
+    lab.initial_robot = robot
+    page = browser.page(lab.url)
+    shots.wait_ready(page, robot)
+    session = shots._new_session(lab, before)
+    if hide:
+        shots.hide_notifications(page)
+    shots.settle(page, 0.8)
+    return page, session
+
+
+def wait_until(condition, timeout=20.0, what="condition"):
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        if condition():
+            return
+        time.sleep(0.05)
+    raise AssertionError(f"timed out waiting for {what}")
+
+
+def hue_of(rgb):
+    h, s, _v = colorsys.rgb_to_hsv(*(np.asarray(rgb, float) / 255))
+    return h, s
+
+
+def has_colour(img, center, color, half=4):
+    """Whether a pixel of the link colour (same hue, saturated) lies within ``half`` px of center."""
+    target, _ = hue_of(color)
+    x, y = int(round(center[0])), int(round(center[1]))
+    patch = img[max(0, y - half):y + half + 1, max(0, x - half):x + half + 1].reshape(-1, 3)
+    for px in patch:
+        h, s = hue_of(px)
+        if s > 0.3 and min(abs(h - target), 1 - abs(h - target)) < 0.04:
+            return True
+    return False
+
+
+def link_points(session, fractions=(0.2, 0.35, 0.65, 0.8)):
+    """World points along every link bar of the drawn robot (away from its ends and middle, where
+    joints and CoM markers sit), with the link colour: [(points, colour), ...]."""
+    drawing = session.drawing
+    poses = drawing.poses(session.q)
+    out = []
+    for part in drawing.parts:
+        if part.role == "link":
+            a, b = part.segment
+            T = poses[part.attach]
+            local = [a + f * (b - a) for f in fractions]
+            out.append(([T[:3, :3] @ p + T[:3, 3] for p in local], part.color))
+    return out
+
+
+def assert_robot_drawn(page, session):
+    """Every link (in view, not under the side panel) shows its colour where it projects."""
+    img = shots.image(page)
+    links = link_points(session)
+    assert links
+    camera = session.client.camera
+    visible = 0
+    for points, color in links:
+        pixels = [px for px in shots.project(camera, points)
+                  if 0 <= px[0] < camera.image_width - 420 and 0 <= px[1] < img.shape[0]]
+        if len(pixels) < 2:
+            continue
+        hits = sum(has_colour(img, px, color) for px in pixels)
+        assert hits >= 2, f"link colour {color} missing near {pixels}"
+        visible += 1
+    assert visible >= 1
+    # and the link colours are not everywhere: the bottom-left corner is background
+    for color in PALETTE[:3]:
+        assert not has_colour(img, (30, 690), color, half=10)
+    return img
+
+
+@pytest.mark.parametrize("robot", ["planar_2r", "rp_2004_03_25", "polar_2r_2016_06_06", "throwing_arm"])
+def test_robot_drawn_and_follows_slider(lab, browser, robot):
+    page, session = open_tab(lab, browser, robot)
+    try:
+        before = assert_robot_drawn(page, session)
+        q_before = session.q.copy()
+        thumb = shots.slider_thumb(page, session.robot.coordinates[0])
+        thumb.focus()
+        thumb.press("End")            # q1 to the top of its range, as a user would
+        wait_until(lambda: session.q[0] != q_before[0], what="q1 to change")
+        lo, hi = session.ranges[session.robot.coordinates[0]]
+        assert session.q[0] == pytest.approx(hi, abs=1e-3)
+        shots.settle(page, 1.0)
+        after = assert_robot_drawn(page, session)
+        canvas = np.s_[:, : after.shape[1] - 420]
+        changed = np.mean(np.any(np.abs(after[canvas].astype(int) - before[canvas].astype(int)) > 30, axis=2))
+        assert changed > 0.002, f"picture barely changed ({changed:.4f})"
+    finally:
+        page.context.close()
+
+
+def test_model_panel_shows_typeset_math_and_values(lab, browser):
+    page, session = open_tab(lab, browser, "planar_2r")
+    try:
+        shots.select_tab(page, "Model")
+        page.wait_for_selector(".r2-math math", state="visible")
+        boxes = page.evaluate("""() => [...document.querySelectorAll('.r2-math math')]
+            .map(m => m.getBoundingClientRect()).filter(r => r.width > 0 && r.height > 0).length""")
+        assert boxes >= 4
+        assert page.evaluate("() => document.fonts.check(\"16px 'STIX Two Math'\")")
+        # the matrix of M(q) has stretchy brackets: its fence is taller than a line of text
+        fence = page.evaluate("""() => { const mo = [...document.querySelectorAll('.r2-math mo[stretchy=true]')]
+            .map(e => e.getBoundingClientRect().height); return Math.max(...mo); }""")
+        assert fence > 30
+        first = page.locator(".r2-num").first
+        text_before = first.inner_text()
+        thumb = shots.slider_thumb(page, "q2")
+        thumb.focus()
+        thumb.press("End")
+        wait_until(lambda: first.inner_text() != text_before, what="numeric M to change with q2")
+        M = session.numeric.M(session.q)
+        assert f"{M[0, 0]:.4g}" in first.inner_text().replace("\n", " ")
+    finally:
+        page.context.close()
+
+
+def choose(page, label, option):
+    """Pick an option in a labelled dropdown, as a user would."""
+    shots.field(page, label).click()
+    page.get_by_role("option", name=option, exact=True).click()
+
+
+def test_picking_another_robot_replaces_the_scene(lab, browser):
+    page, session = open_tab(lab, browser, "planar_2r")
+    try:
+        nodes = shots.scene_node_names(page)
+        assert "/robot/link2__joint/joint" in nodes and not any("sleeve" in n for n in nodes)
+        choose(page, "Robot", "Planar RP, prismatic axis across link 1 (exam 2004-03-25)")
+        shots.wait_ready(page, "rp_2004_03_25")
+        assert session.robot_name == "rp_2004_03_25"
+        wait_until(lambda: "/robot/link2__joint/sleeve" in shots.scene_node_names(page), what="the RP scene")
+        nodes = shots.scene_node_names(page)
+        assert "/robot/link2__joint/joint" not in nodes      # the 2R's revolute joint 2 is gone
+        assert page.get_by_role("tab", name="Model").count() == 1
+        shots.settle(page, 1.0)
+        assert_robot_drawn(page, session)
+        choose(page, "Group", "Throwing arm")
+        shots.wait_ready(page, "throwing_arm")
+        assert [s.name for s in session.robot.bodies] == ["link1", "link2", "link3"]
+    finally:
+        page.context.close()
+
+
+def test_two_tabs_keep_independent_state(lab, browser):
+    page_a, session_a = open_tab(lab, browser, "planar_2r")
+    page_b, session_b = open_tab(lab, browser, "planar_2r")
+    try:
+        assert session_a is not session_b
+        choose(page_a, "Robot", "Planar RP, prismatic axis across link 1 (exam 2004-03-25)")
+        shots.wait_ready(page_a, "rp_2004_03_25")
+        assert session_b.robot_name == "planar_2r"
+        thumb = shots.slider_thumb(page_b, "q1")
+        thumb.focus()
+        thumb.press("End")
+        wait_until(lambda: session_b.q[0] > 3.0, what="q1 of tab B")
+        assert session_a.q[0] == 0.0
+        assert page_b.get_by_text("Planar 2R arm (vertical plane)").count() >= 1
+        assert shots.field(page_a, "q1").input_value() == "0"
+    finally:
+        page_a.context.close()
+        page_b.context.close()
+
+
+@pytest.mark.parametrize("typed, message", [("-3", "must not be negative"), ("", "empty value"),
+                                             ("heavy", "is not a number")])
+def test_bad_parameter_is_refused_with_a_message(lab, browser, typed, message):
+    page, session = open_tab(lab, browser, "planar_2r", hide=False)
+    try:
+        page.get_by_text("Parameters", exact=True).click()
+        box = shots.field(page, "m1 [kg]")
+        box.click()
+        box.press("Control+a")
+        box.press("Backspace")
+        if typed:
+            page.keyboard.type(typed)
+        page.get_by_text(message).first.wait_for(timeout=10000)
+        wait_until(lambda: box.input_value() == "10", what="the last good value back in the field")
+        assert session.params["m1"] == 10 and session.numeric.values["m1"] == 10
+        # the page keeps working: a good value goes through to the model
+        box.click()
+        box.press("Control+a")
+        page.keyboard.type("12")
+        wait_until(lambda: session.numeric.values["m1"] == 12.0, what="m1 = 12 in the model")
+        wait_until(lambda: "pinocchio agrees" in page.locator(".r2-badge").inner_text(), what="the check badge")
+    finally:
+        page.context.close()
