@@ -285,3 +285,13 @@ def test_shipped_throws_are_the_thesis_tables():
     one = load_throw_config("throw1")
     assert one.spec.a[0] == 1.732 and one.spec.degree == (6, 6) and one.thesis["theta_dot_e"] == 3.954
     assert load_throw_config("throw3").spec.psi_deg == pytest.approx(23.640)
+
+
+def test_shipped_optimized_throws_are_feasible(arm):
+    best = arm.solve(load_throw_config("optimized_thesis").spec)
+    assert best.check(q1_min=math.pi / 6).feasible
+    assert best.release.distance_from_base_thesis == pytest.approx(2.9656, abs=1e-4)
+    phys = arm.solve(load_throw_config("optimized_physical").spec)
+    assert phys.check(q1_min=math.pi / 6).feasible
+    assert phys.release.distance_from_base == pytest.approx(2.8082, abs=1e-4)
+    assert phys.release.distance_from_base <= speed_limit_bound(arm, "physical").distance_from_base

@@ -1201,7 +1201,7 @@ class OptimizationResult:
     evaluations: int              # throw-model evaluations (one per throw and finite-difference point)
     local_runs: int
     elapsed: float                # [s]
-    history: List[Tuple[float, float]] = field(default_factory=list)   # (time, best distance so far)
+    history: List[Tuple[float, float]] = field(default_factory=list)   # (seconds, best feasible distance)
 
 
 class _Timeout(Exception):
@@ -1268,6 +1268,8 @@ class ThrowOptimizer:
         self.evaluations = 0
         self._best: Tuple[float, Optional[np.ndarray]] = (-np.inf, None)
         self._deadline = np.inf
+        self._t0 = time.monotonic()
+        self.history: List[Tuple[float, float]] = []     # (seconds into the run, best feasible distance)
 
     # ------------------------------------------------------------------ vectors
     def to_vector(self, spec: ThrowSpec) -> np.ndarray:
@@ -1332,6 +1334,7 @@ class ThrowOptimizer:
             j = int(np.argmax(np.where(ok, dist, -np.inf)))
             if dist[j] > self._best[0]:
                 self._best = (float(dist[j]), X[j].copy())
+                self.history.append((time.monotonic() - self._t0, float(dist[j])))
         return dist, C
 
     def _local(self, x0: np.ndarray, maxiter: int = 150) -> None:
@@ -1393,14 +1396,12 @@ class ThrowOptimizer:
         """Global stage, then SLSQP from the best distinct candidates until ``budget`` seconds pass or
         the best throw is within ``stop_within`` (relative) of the speed-limit bound, which no throw
         can beat."""
-        t0 = time.monotonic()
+        t0 = self._t0 = time.monotonic()
         self._deadline = t0 + budget
+        self.history = []
         rng = np.random.default_rng(seed)
-        history: List[Tuple[float, float]] = []
 
         def report(frac, msg):
-            if self._best[1] is not None:
-                history.append((time.monotonic() - t0, self._best[0]))
             if progress:
                 progress(min(frac, 0.99), msg)
 
@@ -1447,7 +1448,7 @@ class ThrowOptimizer:
         if progress:
             progress(1.0, f"best {d:.4f} m from the base")
         return OptimizationResult(spec, throw, feas, self.objective, float(d), bound, self.evaluations, runs,
-                                  time.monotonic() - t0, history)
+                                  time.monotonic() - t0, list(self.history))
 
 
 # ====================================================================== the thesis, reproduced
