@@ -44,6 +44,8 @@ def font_style() -> str:
             ".r2-math{overflow-x:auto;overflow-y:hidden;max-width:100%;padding:2px 0}"
             ".r2-math math{font-family:'STIX Two Math',math;font-size:1.05em}"
             ".r2-math math[display=block]{margin:0.2em 0}"
+            ".r2-math mtd[columnalign=left]{text-align:left}"
+            ".r2-math mtd[columnalign=right]{text-align:right}"
             ".r2-label{font-size:0.85em;color:#555;margin-top:0.4em}"
             ".r2-num math{color:#1d4f91}"
             "</style>")
@@ -181,6 +183,16 @@ def sum_lines(lhs: str, expr, coordinates: Sequence[str], width_em: float = PANE
     expr = sp.sympify(expr)
     if estimate_width_em(full) <= width_em or not isinstance(expr, sp.Add):
         return full
+    lines = _break_sum(expr, coordinates, width_em, short_trig)
+    if max(estimate_width_em(line) for line in lines) > width_em:    # a factored term is too wide:
+        expanded = sp.expand(expr)                                 # break the expanded sum instead
+        if isinstance(expanded, sp.Add):
+            lines = _break_sum(expanded, coordinates, width_em, short_trig)
+    rows = [f"{lhs} & = {lines[0]}"] + [rf"& \quad {line}" for line in lines[1:]]
+    return r"\begin{array}{rl}" + r"\\".join(rows) + r"\end{array}"
+
+
+def _break_sum(expr, coordinates, width_em, short_trig) -> List[str]:
     terms = [to_latex(t, coordinates, short_trig=short_trig) for t in sp.Add.make_args(expr)]
     lines: List[str] = []
     current = ""
@@ -192,8 +204,7 @@ def sum_lines(lhs: str, expr, coordinates: Sequence[str], width_em: float = PANE
         else:
             current = f"{current} {piece}".strip()
     lines.append(current)
-    rows = [f"{lhs} & = {lines[0]}"] + [rf"& \quad {line}" for line in lines[1:]]
-    return r"\begin{array}{rl}" + r"\\".join(rows) + r"\end{array}"
+    return lines
 
 
 def matrix_latex_blocks(name: str, matrix: sp.Matrix, coordinates: Sequence[str], entry_name: str,
