@@ -81,6 +81,8 @@ class Controller:
     closed_loop = ""
     gain_specs: Tuple[Gain, ...] = ()
     needs_full_actuation = False
+    #: "joint" (references in coordinates, rad or m) or "task" (a point's position, m)
+    space = "joint"
 
     def __init__(self, gains: Optional[Mapping[str, float]] = None):
         self._requested: Dict[str, float] = {}
@@ -353,14 +355,12 @@ class Adaptive(Controller):
         self.coefficients_latex = [sp.latex(a) for a in par.a]
         self.coefficient_names = [str(a) for a in par.a]
         self._Y = sp.lambdify([robot.q, robot.dq, dqr, ddqr, p], par.Y_ref, "numpy", cse=True)
-        self._a = sp.lambdify([p], sp.Matrix(par.a), "numpy", cse=True)
         self._p = np.array([s.model.values[name] for name in robot.parameters], dtype=float)
         self.internal_names = [f"a_hat{i + 1}" for i in range(self.count)]
 
     def coefficients(self, values: Mapping[str, float]) -> np.ndarray:
         """The true coefficient vector a at given parameter values (e.g. the plant's)."""
-        p = np.array([values[name] for name in self.robot.parameters], dtype=float)
-        return np.asarray(self._a(p), dtype=float).reshape(self.count)
+        return coefficient_values(self.robot, values)
 
     def regressor(self, q, dq, dqr, ddqr) -> np.ndarray:
         return np.asarray(self._Y(q, dq, dqr, ddqr, self._p), dtype=float).reshape(self.n, self.count)
@@ -383,6 +383,21 @@ class Adaptive(Controller):
 
     def internals(self):
         return self._used
+
+
+def coefficient_values(robot, values: Mapping[str, float]) -> np.ndarray:
+    """The minimal dynamic coefficients a of the robot's linear parametrization (the ones adaptive
+    control estimates) at the given parameter values.
+
+    >>> from app.core.robot import load_robot
+    >>> coefficient_values(load_robot("rp_2004_03_25"), {"m1": 8, "m2": 4, "d1": 0.4, "l1": 0.8,
+    ...                    "I1": 0.5, "I2": 0.2, "g0": 9.81}).round(6).tolist()   # I1 + I2 + m1 d1^2, m1 d1, m2
+    [1.98, 3.2, 4.0]
+    """
+    from .dynamics import derive
+    par = derive(robot).parametrization
+    subs = {sp.Symbol(k, real=True): float(values[k]) for k in robot.parameters}
+    return np.array([float(sp.sympify(a).xreplace(subs)) for a in par.a], dtype=float)
 
 
 @register
@@ -557,6 +572,7 @@ class ElasticPD(Controller):
 class _Cartesian(Controller):
     """Controllers of a point's position p(q) in task coordinates (x, y for planar robots)."""
     needs_full_actuation = True
+    space = "task"
 
     def reference_coordinates(self, s):
         robot = s.robot

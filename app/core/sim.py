@@ -824,6 +824,9 @@ def simulate(robot: Union[RobotModel, str], controller: Union[Controller, str], 
         settings["plant"] = ", ".join(f"{k}={v:g}" for k, v in plant_params.items())
     if model_params:
         settings["model"] = ", ".join(f"{k}={v:g}" for k, v in model_params.items())
+    differ = {k: v for k, v in model.values.items() if v != plant_terms.values[k]}
+    if differ:
+        settings["model_mismatch"] = ", ".join(f"{k}={v:g}" for k, v in differ.items())
     if viscous is not None:
         settings["viscous"] = ",".join(f"{v:g}" for v in viscous)
     if bounds is not None:

@@ -232,11 +232,11 @@ class Sinusoid(Reference):
 
 #: kind -> (allowed keys, required keys, one-line help)
 REFERENCE_KINDS: Dict[str, Tuple[Tuple[str, ...], Tuple[str, ...], str]] = {
-    "setpoint": (("goal",), (), "constant q_d = goal (default: the initial value)"),
-    "cubic": (("goal", "T", "from", "t0"), ("goal", "T"), "rest-to-rest cubic polynomial to goal in T s"),
-    "quintic": (("goal", "T", "from", "t0"), ("goal", "T"), "rest-to-rest quintic polynomial to goal in T s"),
-    "bangbang": (("goal", "amax", "from", "t0"), ("goal", "amax"), "minimum time under |acceleration| <= amax"),
-    "trapezoidal": (("goal", "vmax", "amax", "from", "t0"), ("goal", "vmax", "amax"),
+    "setpoint": (("goal", "by"), (), "constant q_d = goal (default: the initial value)"),
+    "cubic": (("goal", "by", "T", "from", "t0"), ("goal", "T"), "rest-to-rest cubic polynomial to goal in T s"),
+    "quintic": (("goal", "by", "T", "from", "t0"), ("goal", "T"), "rest-to-rest quintic polynomial to goal in T s"),
+    "bangbang": (("goal", "by", "amax", "from", "t0"), ("goal", "amax"), "minimum time under |acceleration| <= amax"),
+    "trapezoidal": (("goal", "by", "vmax", "amax", "from", "t0"), ("goal", "vmax", "amax"),
                     "minimum time under |velocity| <= vmax and |acceleration| <= amax"),
     "sine": (("center", "amplitude", "f", "phase"), ("amplitude", "f"),
              "center + amplitude sin(2 pi f t + phase) (center default: the initial value)"),
@@ -247,14 +247,17 @@ def parse_reference(text: Optional[str], start: Sequence[float], names: Optional
     """Read a reference from text ``KIND key=value ...``; vector values are comma-separated (one
     per coordinate, or one for all) and may use ``pi``. ``start`` is the initial value of the
     referenced coordinates: motions start there unless ``from=...`` says otherwise (an initial
-    error); an empty text holds them (set point).
+    error); ``by=...`` gives the goal as a displacement from the start; an empty text holds the
+    start (set point).
 
     >>> parse_reference("quintic goal=pi/2,0 T=2", start=[0, 0]).describe()
     'quintic from=0,0 goal=1.570796327,0 T=2'
+    >>> parse_reference("setpoint by=0.5", start=[0.2, 1.0]).goal.tolist()
+    [0.7, 1.5]
     >>> parse_reference("cubic T=2", start=[0, 0])
     Traceback (most recent call last):
     ...
-    app.core.trajectories.TrajectoryError: reference 'cubic': missing goal (rest-to-rest cubic polynomial to goal in T s)
+    app.core.trajectories.TrajectoryError: reference 'cubic': missing goal (rest-to-rest cubic polynomial to goal in T s; or by=, a displacement)
     """
     start = np.asarray(start, dtype=float).reshape(-1)
     n = start.size
@@ -281,11 +284,15 @@ def parse_reference(text: Optional[str], start: Sequence[float], names: Optional
         if len(vals) not in (1, n):
             raise TrajectoryError(f"reference '{kind}': {key} needs {n} values ({', '.join(names)}) or one, got {len(vals)}")
         values[key] = _vector(vals, n, f"reference '{kind}': {key}")
+    start = values.get("from", start)
+    if "by" in values:              # a displacement from the start instead of a goal
+        if "goal" in values:
+            raise TrajectoryError(f"reference '{kind}': give goal or by, not both")
+        values["goal"] = start + values.pop("by")
     for key in required:
         if key not in values:
-            raise TrajectoryError(f"reference '{kind}': missing {key} ({help_text})")
+            raise TrajectoryError(f"reference '{kind}': missing {key} ({help_text}; or by=, a displacement)")
     t0 = float(values["t0"][0]) if "t0" in values else 0.0
-    start = values.get("from", start)
     if kind == "setpoint":
         return SetPoint(values.get("goal", start))
     if kind in ("cubic", "quintic"):

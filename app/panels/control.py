@@ -1,0 +1,586 @@
+"""Control panel: pick a controller of the course (its law typeset as in the exams), a reference
+and gains, run it in closed loop from the sliders' configuration (app/core/sim.py), then replay
+the motion in 3D with the reference as a ghost, and read the plots of errors, torques and the
+controller's internals (estimates, residuals, forces). CSV and PNG downloads."""
+from __future__ import annotations
+
+import html
+import io
+import threading
+import time
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from app.core.control import CONTROLLERS, coefficient_values
+from app.core.errors import UserError
+from app.core.sim import SimResult, parse_assignments, parse_contact, parse_numbers, simulate
+from app.core.trajectories import REFERENCE_KINDS
+from app.viewer import mathml
+
+TITLE = "Control"
+ORDER = 40
+
+#: controllers in the order of the course
+ORDER_OF_CONTROLLERS = ["pd", "pd_gravity", "pd_gravity_const", "computed_torque", "robust", "adaptive",
+                        "learning", "pfl_collocated", "pfl_noncollocated", "elastic_pd", "impedance",
+                        "admittance", "hybrid"]
+HOLD = "hold the start"
+#: reference templates per kind: (joint space, task space); "by" is a displacement from the start
+TEMPLATES = {
+    HOLD: ("", ""),
+    "setpoint": ("by=0.5", "by=0.1"),
+    "cubic": ("by=0.8 T=2", "by=0.2 T=2"),
+    "quintic": ("by=0.8 T=2", "by=0.2 T=2"),
+    "bangbang": ("by=0.8 amax=2", "by=0.2 amax=0.5"),
+    "trapezoidal": ("by=0.8 vmax=0.8 amax=2", "by=0.2 vmax=0.2 amax=0.5"),
+    "sine": ("amplitude=0.4 f=0.5", "amplitude=0.05 f=0.5"),
+}
+SPEEDS = {"0.1x": 0.1, "0.25x": 0.25, "0.5x": 0.5, "1x": 1.0, "2x": 2.0}
+COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf",
+          "#7f7f7f", "#bcbd22"]
+MAX_PLOT_POINTS = 1500
+FPS = 30.0
+
+
+def controllers_for(robot) -> List[str]:
+    """Controllers offered for a robot: elastic-joint control only for robots with motors."""
+    names = [n for n in ORDER_OF_CONTROLLERS if n in CONTROLLERS]
+    names += sorted(n for n in CONTROLLERS if n not in names)
+    if not robot.motor_inertias:
+        names = [n for n in names if n != "elastic_pd"]
+    return names
+
+
+def default_controller(robot) -> str:
+    if robot.motor_inertias:
+        return "elastic_pd"
+    if not all(robot.actuated):
+        return "pfl_collocated"
+    return "computed_torque"
+
+
+# ====================================================================== plots
+def plot_groups(res: SimResult, true_coefficients: Optional[Sequence[float]] = None
+                ) -> List[Tuple[str, List[Tuple[str, np.ndarray, bool, int]]]]:
+    """The plots of a run: (title, [(label, values, dashed, color index), ...]) for errors,
+    torques, estimates (with the true values dashed, same colour), residuals (with J^T F dashed),
+    contact forces, other internals.
+
+    >>> from app.core.sim import simulate
+    >>> res = simulate("planar_2r", "adaptive", duration=0.01, observer=10)
+    >>> [title for title, _ in plot_groups(res)]
+    ['Tracking error e = q_d - q', 'Torques τ', 'Estimates â', 'Collision residual r (dashed: Jᵀ F)']
+    """
+    groups = []
+    task = bool(res.reference_names) and res.reference_names[0] in ("x", "y", "z", "s", "s1", "s2")
+
+    def numbered(items, dashed=False):
+        return [(label, values, dashed, k) for k, (label, values) in enumerate(items)]
+    groups.append((f"Tracking error e = {'p_d - p' if task else 'q_d - q'}",
+                   numbered([(f"e_{r}", res.e[:, i]) for i, r in enumerate(res.reference_names)])))
+    groups.append(("Torques τ", numbered([(f"τ_{c}", res.tau[:, i]) for i, c in enumerate(res.coordinates)])))
+    internals = dict(res.internals)
+    estimates = [k for k in internals if k.startswith("a_hat")]
+    if estimates:
+        series = numbered([(k.replace("a_hat", "â"), internals.pop(k)) for k in estimates])
+        if true_coefficients is not None:
+            series += numbered([(f"a{i + 1}", np.full(len(res.t), float(v))) for i, v in enumerate(true_coefficients)],
+                               dashed=True)
+        groups.append(("Estimates â" + (" (dashed: true values)" if true_coefficients is not None else ""), series))
+    residuals = [k for k in internals if k.startswith("r_")]
+    if residuals:
+        series = numbered([(k, internals.pop(k)) for k in residuals])
+        if res.tau_ext is not None:
+            series += numbered([(f"(Jᵀ F)_{c}", res.tau_ext[:, i]) for i, c in enumerate(res.coordinates)], dashed=True)
+        groups.append(("Collision residual r (dashed: Jᵀ F)", series))
+    forces = [(f"F_{name}_{a}", arr[:, j]) for name, arr in res.forces.items()
+              for j, a in enumerate(res.force_axes[:arr.shape[1]])]
+    forces += [(k, internals.pop(k)) for k in [k for k in internals if k.startswith("F_") or k in ("lambda", "f_c")]]
+    if forces:
+        groups.append(("Contact forces [N] (on the robot)",
+                       [(label, v, label == "f_c", k) for k, (label, v) in enumerate(forces)]))
+    if internals:
+        groups.append(("Controller internals", numbered(list(internals.items()))))
+    return groups
+
+
+def _thin(n: int) -> np.ndarray:
+    """Indices of at most MAX_PLOT_POINTS samples, always including the last one."""
+    if n <= MAX_PLOT_POINTS:
+        return np.arange(n)
+    idx = np.linspace(0, n - 1, MAX_PLOT_POINTS).round().astype(int)
+    return np.unique(idx)
+
+
+def plots_png(res: SimResult, groups, width: int = 900, height_each: int = 220) -> bytes:
+    """A PNG of the plots (stacked, one per group), drawn with Pillow.
+
+    >>> from app.core.sim import simulate
+    >>> res = simulate("planar_2r", "computed_torque", reference="quintic by=0.3 T=0.05", duration=0.05)
+    >>> plots_png(res, plot_groups(res))[:8] == b"\\x89PNG\\r\\n\\x1a\\n"
+    True
+    """
+    from PIL import Image, ImageDraw, ImageFont
+    font = ImageFont.load_default(size=13)
+    small = ImageFont.load_default(size=11)
+    img = Image.new("RGB", (width, height_each * len(groups) + 30), "white")
+    d = ImageDraw.Draw(img)
+    d.text((10, 6), f"{res.robot} · {res.title} · {res.reference}"
+           + ("" if res.completed else f" · {res.message}"), fill="black", font=font)
+    left, right = 70, width - 20
+    t = res.t
+    t0, t1 = float(t[0]), float(t[-1]) if t[-1] > t[0] else float(t[0]) + 1.0
+    for g, (title, series) in enumerate(groups):
+        top = 30 + g * height_each + 22
+        bottom = 30 + (g + 1) * height_each - 28
+        values = np.concatenate([v for _, v, _, _ in series]) if series else np.zeros(1)
+        lo, hi = float(np.min(values)), float(np.max(values))
+        if hi - lo < 1e-12:
+            lo, hi = lo - 1.0, hi + 1.0
+        pad = 0.05 * (hi - lo)
+        lo, hi = lo - pad, hi + pad
+        d.text((left, top - 20), title, fill="black", font=font)
+        d.rectangle((left, top, right, bottom), outline="#999999")
+        if lo < 0 < hi:
+            y0 = bottom - (0 - lo) / (hi - lo) * (bottom - top)
+            d.line((left, y0, right, y0), fill="#dddddd")
+        for y, label in ((top, hi), (bottom, lo)):
+            d.text((5, y - 7), f"{label:.3g}", fill="#444444", font=small)
+        d.text((left, bottom + 4), f"{t0:g} s", fill="#444444", font=small)
+        d.text((right - 40, bottom + 4), f"{t1:g} s", fill="#444444", font=small)
+        idx = _thin(len(t))
+        xs = left + (t[idx] - t0) / (t1 - t0) * (right - left)
+        legend_x = left + 60
+        for label, v, dashed, ci in series:
+            color = COLORS[ci % len(COLORS)]
+            ys = bottom - (v[idx] - lo) / (hi - lo) * (bottom - top)
+            pts = list(zip(xs.tolist(), ys.tolist()))
+            if dashed:
+                for j in range(0, len(pts) - 1, 2):
+                    d.line(pts[j:j + 2], fill=color, width=1)
+            else:
+                d.line(pts, fill=color, width=2)
+            d.text((legend_x, bottom + 4), label, fill=color, font=small)
+            legend_x += 9 * len(label) + 14
+    buf = io.BytesIO()
+    img.save(buf, format="PNG")
+    return buf.getvalue()
+
+
+# ====================================================================== the panel
+def build(session) -> None:
+    ControlPanel(session)
+
+
+class ControlPanel:
+    """The widgets and the replay of one tab's Control panel."""
+
+    def __init__(self, session):
+        session.scene.remove_ghost("control_ref")      # a previous robot's reference
+        self.session = session
+        self.gui = session.gui
+        self.robot = session.robot
+        self.generation = session.generation
+        self.state = session.state.setdefault("control", {})
+        self.result: Optional[SimResult] = None
+        self.true_coefficients = None
+        self._replay = {"t": 0.0, "playing": False, "speed": 1.0}
+        self._replay_lock = threading.Lock()
+        self._result_widgets: List = []
+        self._plots: List = []
+        self._build()
+        self.state["panel"] = self
+
+    # -------------------------------------------------------------- widgets
+    def _build(self) -> None:
+        gui, robot = self.gui, self.robot
+        gui.add_html(mathml.label_html(
+            "Run a control law in closed loop from the sliders' configuration, with the parameter "
+            "values above as the real robot; then replay it and read the plots."))
+        names = controllers_for(robot)
+        self._names = names
+        self._titles = {CONTROLLERS[n].title: n for n in names}
+        chosen = self.state.get("controller")
+        if chosen not in names:
+            chosen = default_controller(robot)
+        self.controller = gui.add_dropdown("Controller", list(self._titles), initial_value=CONTROLLERS[chosen].title,
+                                           hint="The control laws of the course")
+        self.law = gui.add_html("")
+        self.gains = gui.add_text("Gains", "", hint="name=value, comma-separated: Kp=100 (all joints), Kp2=50 "
+                                                    "(joint 2 only); empty: the defaults listed above")
+        kinds = [HOLD] + list(REFERENCE_KINDS)
+        self.ref_kind = gui.add_dropdown("Reference", kinds, initial_value=self.state.get("ref_kind", "quintic"),
+                                         hint="q_d(t) (or p_d(t) for Cartesian controllers)")
+        self.ref_params = gui.add_text("Reference values", "", hint="key=value separated by spaces; vectors "
+                                       "comma-separated, one value per coordinate or one for all; by= is a "
+                                       "displacement from the start, goal= an absolute value; pi allowed")
+        self.ref_help = gui.add_html("")
+        with gui.add_folder("Simulation settings", expand_by_default=False):
+            self.duration = gui.add_number("Duration [s]", float(self.state.get("duration", 4.0)), min=0.01,
+                                           max=120.0, step=0.5)
+            self.rate = gui.add_number("Control rate [Hz]", 1000.0, min=10.0, max=20000.0, step=100.0,
+                                       hint="the controller is sampled at this rate (zero-order hold)")
+            self.mismatch = gui.add_text("Model mismatch", self.state.get("mismatch", ""),
+                                         hint="parameters of the controller's model that differ from the real "
+                                              "robot, e.g. m2=3, I2=0.1 (the real robot uses the Parameters fields)")
+            self.viscous = gui.add_text("Extra friction [N m s/rad]", "",
+                                        hint="viscous friction of the real robot unknown to the controller "
+                                             "(one value or one per joint)")
+            self.saturation = gui.add_text("Torque bounds", "", hint="one value or one per joint, or 'limits' "
+                                                                      "for the robot file's torque limits")
+            passive = ",".join(c for c, a in zip(robot.coordinates, robot.actuated) if not a)
+            self.passive = gui.add_text("Passive joints", passive, hint="coordinates without actuator (zero "
+                                                                         "torque), e.g. q2 for partial feedback linearization")
+            self.observer = gui.add_text("Collision observer K_I", self.state.get("observer", ""),
+                                         hint="run the momentum-based residual with this gain (1/s), e.g. 50")
+            self.force = gui.add_text("Force on a point", "", hint="POINT F=fx,fy [from=t0] [to=t1] [at=x,y,z]: "
+                                      f"points {', '.join(robot.points) or '-'} or a body with at=")
+            self.surface = gui.add_text("Surface", "", hint="POINT normal=nx,ny [offset=o] [k=stiffness d=damping]"
+                                                            ": rigid without k (needed by hybrid control)")
+        self.run_button = gui.add_button("Run", hint="simulate and replay")
+        self.status = gui.add_html("")
+        self.results = gui.add_folder("Replay and plots", expand_by_default=True)
+
+        self.controller.on_update(lambda event: self._controller_changed(event.client is not None))
+        self.ref_kind.on_update(lambda event: self._kind_changed() if event.client is not None else None)
+        self.run_button.on_click(lambda _: self.run())
+        self._controller_changed(reset_fields=True, initial=True)
+
+    def _name(self) -> str:
+        return self._titles[self.controller.value]
+
+    def _controller_changed(self, reset_fields: bool = True, initial: bool = False) -> None:
+        name = self._name()
+        cls = CONTROLLERS[name]
+        self.state["controller"] = name
+        parts = mathml.split_top_level(cls.law_latex)
+        rows = "".join(f"<tr><td><code>{html.escape(g.name)}</code></td><td>{html.escape(g.doc)}</td>"
+                       f"<td>{g.default:g}{' × M<sub>ii</sub>(q₀)' if g.per_inertia else ''}"
+                       f"{' ' + html.escape(g.unit) if g.unit and g.unit != '-' else ''}</td></tr>"
+                       for g in cls.gain_specs)
+        self.law.content = (
+            "".join(self.session.math_html(p) for p in parts)
+            + f'<div class="r2-label" style="margin:2px 0 4px 0">{html.escape(cls.closed_loop)}</div>'
+            + f'<table style="font-size:0.78em;color:#333;border-collapse:collapse" class="r2-gains">{rows}</table>')
+        if reset_fields and not initial:
+            self.gains.value = ""
+        if name == "hybrid" and not self.surface.value.strip():
+            point = "ee" if "ee" in self.robot.points else next(iter(self.robot.points), "ee")
+            self.surface.value = f"{point} normal=0,1"
+        self._kind_changed(keep=initial and bool(self.state.get("ref_params")))
+
+    def _kind_changed(self, keep: bool = False) -> None:
+        kind = self.ref_kind.value
+        self.state["ref_kind"] = kind
+        task = CONTROLLERS[self._name()].space == "task"
+        if keep:
+            self.ref_params.value = self.state["ref_params"]
+        else:
+            self.ref_params.value = TEMPLATES[kind][1 if task else 0]
+        help_text = "hold the initial value" if kind == HOLD else REFERENCE_KINDS[kind][2]
+        unit = "m (a point's x, y)" if task else "rad or m (the controller's coordinates)"
+        if self._name() == "hybrid":
+            unit = "m (position s along the surface)"
+        self.ref_help.content = mathml.label_html(f"{help_text}; values in {unit}")
+        self.ref_params.disabled = kind == HOLD
+
+    # -------------------------------------------------------------- running
+    def settings(self) -> Dict:
+        """The keyword arguments of ``simulate`` from the fields (raises UserError on bad input)."""
+        from app.core.control import parse_gains
+        session = self.session
+        name = self._name()
+        kind = self.ref_kind.value
+        reference = None if kind == HOLD else f"{kind} {self.ref_params.value}".strip()
+        plant = dict(session.params)
+        mismatch = parse_assignments(self.mismatch.value, "model mismatch")
+        unknown = [k for k in mismatch if k not in plant]
+        if unknown:
+            raise UserError(f"model mismatch: unknown parameter(s) {', '.join(unknown)}")
+        model = {**plant, **mismatch}
+        saturation = self.saturation.value.strip() or None
+        if saturation is not None and saturation != "limits":
+            saturation = parse_numbers(saturation, "torque bounds")
+        contacts = []
+        if self.force.value.strip():
+            contacts.append(parse_contact("force", self.force.value))
+        if self.surface.value.strip() and name in ("hybrid", "impedance", "admittance"):
+            contacts.append(parse_contact("surface", self.surface.value))
+        observer = parse_numbers(self.observer.value, "observer K_I") if self.observer.value.strip() else None
+        return dict(robot=self.robot, controller=name, reference=reference, gains=parse_gains(self.gains.value),
+                    duration=float(self.duration.value), rate=float(self.rate.value), q0=np.array(session.q),
+                    plant_params=plant, model_params=model,
+                    viscous=parse_numbers(self.viscous.value, "extra friction") if self.viscous.value.strip() else None,
+                    saturation=saturation, passive=[c.strip() for c in self.passive.value.split(",") if c.strip()],
+                    contacts=contacts, observer=observer)
+
+    def configure(self, controller: str, reference: str = "", mismatch: str = "", duration: Optional[float] = None,
+                  gains: str = "", **fields) -> None:
+        """Fill the fields from code (scripts, screenshots): a controller name, a reference text
+        ('quintic by=0.5 T=2', '' to hold), a model mismatch, the duration, gains; ``fields`` sets
+        other text fields by attribute name (observer, force, surface, passive, saturation, viscous)."""
+        self.controller.value = CONTROLLERS[controller].title
+        self._controller_changed()
+        kind, _, values = reference.partition(" ")
+        self.ref_kind.value = kind or HOLD
+        self._kind_changed()
+        self.ref_params.value = values
+        self.mismatch.value = mismatch
+        self.gains.value = gains
+        if duration is not None:
+            self.duration.value = float(duration)
+        for name, value in fields.items():
+            getattr(self, name).value = value
+
+    def show_time(self, t: float) -> None:
+        """Stop the replay and show the run at time t."""
+        with self._replay_lock:
+            self._replay.update(t=float(t), playing=False)
+        self.time.value = float(t)
+        self._show_time(float(t))
+
+    def run(self, wait: bool = False):
+        """Simulate with the current fields (in the background; ``wait`` blocks until done)."""
+        try:
+            kwargs = self.settings()
+        except UserError as exc:
+            self.session.notify("Cannot run", str(exc), error=True)
+            return None
+        self.state.update(duration=self.duration.value, mismatch=self.mismatch.value, observer=self.observer.value,
+                          ref_params=self.ref_params.value)
+        self._stop_replay()
+        self.run_button.disabled = True
+        self.status.content = mathml.label_html("running ...")
+        title = f"Simulating {CONTROLLERS[kwargs['controller']].title}"
+
+        def work(progress):
+            try:
+                return simulate(progress=lambda f, m: progress(f, m) if self._alive() else False, **kwargs)
+            finally:
+                self.run_button.disabled = False
+
+        def done(res):
+            if self._alive():
+                self._show_result(res, kwargs)
+
+        future = self.session.run_in_background(work, title, on_done=done)
+        if future is not None and future.done() is False and not wait:
+            self.status.content = mathml.label_html("running ...")
+        if wait:
+            future.result()
+        return future
+
+    def _alive(self) -> bool:
+        return self.session.generation == self.generation and self.state.get("panel") is self
+
+    # -------------------------------------------------------------- results
+    def _show_result(self, res: SimResult, kwargs) -> None:
+        self.result = res
+        self.true_coefficients = None
+        if any(k.startswith("a_hat") for k in res.internals):
+            self.true_coefficients = coefficient_values(self.robot, kwargs["plant_params"])
+        mismatch = res.settings.get("model_mismatch")
+        if res.completed:
+            text = (f"completed: {len(res.t)} samples, {res.real_time_factor:.0f}x real time; "
+                    f"final |e| = {np.max(np.abs(res.e[-1])):.2e}" + (f"; model: {mismatch}" if mismatch else ""))
+            self.status.content = f'<div class="r2-label" style="color:#1e7b34">{html.escape(text)}</div>'
+        else:
+            self.status.content = (f'<div class="r2-label" style="color:#b3261e">stopped: '
+                                   f'{html.escape(res.message)}</div>')
+            self.session.notify("The run stopped early", res.message, error=True)
+        for widget in self._result_widgets:
+            widget.remove()
+        self._result_widgets, self._plots = [], []
+        gui = self.gui
+        end = float(res.t[-1])
+        with self.results:
+            self.time = gui.add_slider("Time [s]", min=0.0, max=max(end, 1e-3), step=max(end / 1000, 1e-3),
+                                       initial_value=0.0, hint="scrub through the run")
+            self.play = gui.add_button_group("Replay", ("▶ Play", "❚❚ Pause", "Restart"))
+            self.speed = gui.add_dropdown("Speed", list(SPEEDS), initial_value="1x")
+            self._result_widgets += [self.time, self.play, self.speed]
+            for title, series in plot_groups(res, self.true_coefficients):
+                self._plots.append(self._add_plot(title, series))
+            self.downloads = gui.add_button_group("Download", ("CSV", "PNG"))
+            self._result_widgets += self._plots + [self.downloads]
+
+        self.time.on_update(self._time_moved)
+        self.play.on_click(self._play_clicked)
+        self.speed.on_update(lambda _: self._set_speed())
+        self.downloads.on_click(self._download)
+        self._draw_paths()
+        with self._replay_lock:
+            self._replay.update(t=0.0, playing=False)
+        self._show_time(0.0)
+        self._start_replay()
+
+    def _add_plot(self, title: str, series):
+        idx = _thin(len(self.result.t))
+        data = (self.result.t[idx],) + tuple(np.asarray(v, dtype=float)[idx] for _, v, _, _ in series)
+        cfg = ({"label": "t [s]"},) + tuple(
+            {"label": label, "stroke": COLORS[ci % len(COLORS)], "width": 1.5, **({"dash": [6, 4]} if dashed else {})}
+            for label, _, dashed, ci in series)
+        return self.gui.add_uplot(data=data, series=cfg, title=title, aspect=1.6,
+                                  scales={"x": {"time": False}},
+                                  axes=({"label": "t [s]", "size": 36}, {"size": 52}),
+                                  cursor={"drag": {"x": True, "y": False}})
+
+    def _draw_paths(self) -> None:
+        scene, res = self.session.scene, self.result
+        for name in ("control_ref_path", "control_path", "control_ref_point"):
+            scene.remove_overlay(name)
+        scene.remove_ghost("control_ref")
+        if res.ref_points is not None:
+            scene.add_trajectory("control_ref_path", res.ref_points, color=(150, 150, 150))
+            scene.add_trajectory("control_path", res.actual_points, color=(31, 119, 180))
+
+    def _reference_q(self, k: int) -> Optional[np.ndarray]:
+        """The reference as a configuration for the ghost (referenced coordinates from q_d, the
+        others from the actual motion), or None for Cartesian references."""
+        res = self.result
+        coords = res.coordinates
+        if not all(r in coords for r in res.reference_names):
+            return None
+        q = res.q[k].copy()
+        for i, r in enumerate(res.reference_names):
+            q[coords.index(r)] = res.ref[k, i]
+        return q
+
+    def _show_time(self, t: float) -> None:
+        res = self.result
+        if res is None or not self._alive():
+            return
+        k = int(min(len(res.t) - 1, max(0, np.searchsorted(res.t, t))))
+        scene = self.session.scene
+        with self.session.client.atomic():
+            scene.set_pose(res.q[k])
+            ghost = self._reference_q(k)
+            if ghost is not None:
+                scene.ghost(ghost, "control_ref", color=(120, 160, 230), opacity=0.3)
+            elif res.ref_points is not None:
+                scene.add_marker("control_ref_point", res.ref_points[k], color=(120, 160, 230))
+
+    # -------------------------------------------------------------- replay
+    def _time_moved(self, event) -> None:
+        if event.client is None:         # moved by the replay itself
+            return
+        with self._replay_lock:
+            self._replay.update(t=float(self.time.value), playing=False)
+        self._show_time(float(self.time.value))
+
+    def _play_clicked(self, event) -> None:
+        value = event.target.value
+        with self._replay_lock:
+            if value.endswith("Play"):
+                if self._replay["t"] >= float(self.result.t[-1]) - 1e-9:
+                    self._replay["t"] = 0.0
+                self._replay["playing"] = True
+            elif value.endswith("Pause"):
+                self._replay["playing"] = False
+            else:
+                self._replay.update(t=0.0, playing=False)
+                self.time.value = 0.0
+                self._show_time(0.0)
+
+    def _set_speed(self) -> None:
+        with self._replay_lock:
+            self._replay["speed"] = SPEEDS[self.speed.value]
+
+    def _start_replay(self) -> None:
+        if getattr(self, "_thread", None) is not None and self._thread.is_alive():
+            return
+        self._thread = threading.Thread(target=self._replay_loop, daemon=True,
+                                        name=f"control-replay-{self.session.client.client_id}")
+        self._thread.start()
+
+    def _stop_replay(self) -> None:
+        with self._replay_lock:
+            self._replay["playing"] = False
+
+    def _replay_loop(self) -> None:
+        last = time.monotonic()
+        while self._alive():
+            time.sleep(1.0 / FPS)
+            now = time.monotonic()
+            with self._replay_lock:
+                playing = self._replay["playing"]
+                if playing and self.result is not None:
+                    end = float(self.result.t[-1])
+                    t = min(end, self._replay["t"] + (now - last) * self._replay["speed"])
+                    self._replay["t"] = t
+                    if t >= end:
+                        self._replay["playing"] = False
+            last = now
+            if playing:
+                try:
+                    self.time.value = t
+                    self._show_time(t)
+                except Exception:      # widgets removed by a rebuild: stop quietly
+                    return
+
+    # -------------------------------------------------------------- downloads
+    def _download(self, event) -> None:
+        res = self.result
+        if res is None:
+            return
+        stem = f"{res.robot}_{res.controller}"
+        if event.target.value == "CSV":
+            event.client.send_file_download(f"{stem}.csv", res.to_csv().encode("utf-8"))
+        else:
+            png = plots_png(res, plot_groups(res, self.true_coefficients))
+            event.client.send_file_download(f"{stem}.png", png)
+
+
+# ====================================================================== pictures for the docs
+#: docs/screenshots/ pictures of this panel: file -> (robot, configure() arguments, time shown,
+#: panel scroll in pixels, picture height)
+DOC_SHOTS = {
+    "planar_2r_computed_torque.png": ("planar_2r", dict(controller="computed_torque", mismatch="m2=3, I2=0.15",
+                                                        reference="sine amplitude=0.6,0.8 f=0.5,0.35", duration=6),
+                                      2.3, 520, 900),
+    "planar_2r_adaptive.png": ("planar_2r", dict(controller="adaptive", mismatch="m2=3, I2=0.15",
+                                                 reference="sine amplitude=0.6,0.8 f=0.5,0.35", duration=10),
+                               0.45, 760, 1060),
+}
+
+
+def save_screenshot(out, robot: str, settings: Dict, t_show: float, scroll: int, lab=None, browser=None,
+                    height: int = 900):
+    """Run a controller in the page from q = 0 and save the robot (at ``t_show``, with the
+    reference ghost) and the plots (the panel scrolled by ``scroll`` pixels) as a PNG."""
+    from app.viewer.screenshot import capture
+
+    def setup(session):
+        session.set_q(np.zeros(session.robot.n))
+        panel = session.state["control"]["panel"]
+        panel.configure(**settings)
+        panel.run(wait=True)
+        panel.show_time(t_show)
+
+    def action(page):
+        page.mouse.move(1070, 600)
+        page.mouse.wheel(0, scroll)
+        page.wait_for_timeout(800)
+        page.mouse.move(5, 5)
+
+    return capture(robot, out, panel=TITLE, setup=setup, action=action, height=height, lab=lab, browser=browser)
+
+
+def save_doc_screenshots(out_dir=None) -> List:
+    """Regenerate this panel's pictures in docs/screenshots/ (headless Chromium)."""
+    from pathlib import Path
+
+    from app.viewer.screenshot import Browser
+    from app.viewer.server import LabServer
+    out_dir = Path(out_dir or Path(__file__).resolve().parents[2] / "docs" / "screenshots")
+    lab = LabServer(port=0, verbose=False)
+    paths = []
+    try:
+        with Browser() as browser:
+            for filename, (robot, settings, t_show, scroll, height) in DOC_SHOTS.items():
+                paths.append(save_screenshot(out_dir / filename, robot, settings, t_show, scroll, lab, browser,
+                                             height))
+    finally:
+        lab.stop()
+    return paths
