@@ -295,3 +295,25 @@ def test_shipped_optimized_throws_are_feasible(arm):
     assert phys.check(q1_min=math.pi / 6).feasible
     assert phys.release.distance_from_base == pytest.approx(2.8082, abs=1e-4)
     assert phys.release.distance_from_base <= speed_limit_bound(arm, "physical").distance_from_base
+
+
+SMALL_ALPHA = ThrowSpec(-0.29345, 0.62183, math.radians(24.13967), 9.93597,
+                        (1.53677, 1.35858, 1.1698, 0.95481, 0.92204, 0.96733, 1.25785),
+                        (1.07507, 0.95095, 1.05324, 1.04583, 0.8813, 0.68384, 0.04293))
+
+
+@pytest.mark.parametrize("spec", [
+    SMALL_ALPHA,                                                        # |alpha| dips to 2 % of its median
+    ThrowSpec(**{**thesis_throw("throw1").__dict__, "theta_dot_b": 1e-3}),   # almost from rest
+    ThrowSpec(**{**thesis_throw("throw1").__dict__, "theta_dot_b": 0.5}),
+], ids=["small-alpha", "theta_dot_b=1e-3", "theta_dot_b=0.5"])
+def test_closed_form_where_it_is_delicate(arm, spec):
+    a = np.abs(arm.constraint(spec, np.linspace(spec.theta_b, spec.theta_e, 4001)).alpha[2, 0])
+    if spec is SMALL_ALPHA:
+        assert a.min() < 0.03 * np.median(a)
+    throw = arm.solve(spec)
+    ode = arm.reduced_ode(spec)
+    assert throw.theta_dot_e == pytest.approx(ode.theta_dot_e, rel=1e-9)
+    assert throw.duration == pytest.approx(ode.duration, rel=1e-9)
+    inside = ode.theta <= spec.theta_e
+    assert np.max(np.abs(throw.theta_dot(ode.theta[inside]) - ode.theta_dot[inside])) < 1e-6 * throw.theta_dot_e

@@ -13,7 +13,6 @@ N m), plus release_velocity_thesis, release_speed, release_angle_deg, q_release,
 from __future__ import annotations
 
 import json
-import math
 import sys
 
 import yaml
@@ -101,8 +100,8 @@ def _print_throw(cfg_title, arm, throw, feas, thesis, sims) -> None:
           f"{rel.distance_from_base_thesis:.4f} m{ref('distance_from_base', '.3g')}")
     print(f"  from the release point  {rel.distance_from_release:.4f} m; thesis convention "
           f"{rel.distance_from_release_thesis:.4f} m{ref('distance_from_release', '.3g')}")
-    print(f"  max speed / limit       " + "  ".join(f"{r:.4f}" for r in feas.max_speed_ratio))
-    print(f"  max |torque|            " + "  ".join(f"{t:.2f}" for t in feas.max_torque) + " N m")
+    print("  max speed / limit       " + "  ".join(f"{r:.4f}" for r in feas.max_speed_ratio))
+    print("  max |torque|            " + "  ".join(f"{t:.2f}" for t in feas.max_torque) + " N m")
     print(f"  feasible (Table A.2)    {'yes' if feas.feasible else 'no'}")
     for v in feas.violations:
         print(f"    - {v}")

@@ -39,7 +39,7 @@ import sympy as sp
 import yaml
 from numpy.polynomial import chebyshev as npcheb
 
-from .ballistics import flight_time, landing_distance
+from .ballistics import landing_distance
 from .dynamics import derive
 from .errors import UserError
 from .expressions import parse_expression
@@ -603,6 +603,7 @@ class ThrowingArm:
 
 @dataclass
 class ReducedSolution:
+    """The reduced dynamics integrated in time (``ThrowingArm.reduced_ode``); ``dense(t)`` -> (theta, theta_dot)."""
     duration: float
     theta_dot_e: float
     t: np.ndarray
@@ -766,7 +767,9 @@ class Feasibility:
 
 
 class Throw:
-    """A solved throw: theta_dot(theta), the time law, joint motion, torques and the release."""
+    """A solved throw: theta_dot(theta), the time law, joint motion, torques and the release.
+
+    ``converged`` says whether the adaptive quadrature met its tolerance; ``nodes`` is its size."""
 
     def __init__(self, arm: ThrowingArm, spec: ThrowSpec, mesh: ChebPieces, sol: _Integrals, converged: bool):
         self.arm = arm
@@ -1251,7 +1254,7 @@ class ThrowOptimizer:
         self.degree = degree
         self.objective = objective
         self.mesh = ChebPieces(np.linspace(0.0, 1.0, pieces + 1), nodes)
-        self.margin = margin
+        self.margin = self._margin = margin
         self.reach = reach
         self.min_alpha = min_alpha
         n = degree + 1
@@ -1399,6 +1402,8 @@ class ThrowOptimizer:
         t0 = self._t0 = time.monotonic()
         self._deadline = t0 + budget
         self.history = []
+        self.margin = self._margin
+        self._best = (-np.inf, None)
         rng = np.random.default_rng(seed)
 
         def report(frac, msg):
