@@ -119,8 +119,7 @@ def pretty(tp: TrigPoly, angles: Sequence[Dict[sp.Symbol, int]] = ()) -> sp.Expr
     q2 and q2 + q3), reduced with sin^2 + cos^2 = 1, and the shorter form is kept:
     cos(q3) + cos(2 q2 + q3) becomes 2 cos(q2) cos(q2 + q3)."""
     base = tp.to_expr(factor_coefficients=True)
-    natural = [dict(a) for a in angles]
-    if not natural or all(not freq or {s: n for s, n in freq} in natural for (freq, _k) in tp.terms):
+    if not angles or not any(max(abs(n) for _, n in freq) > 1 for (freq, _k) in tp.terms if freq):
         return base
     alt = _product_form(tp, list(angles))
     if alt is None:
@@ -133,7 +132,7 @@ def tidy(expr, angles=()) -> sp.Expr:
     grouped = collect_trig(expr)
     if not expr.has(sp.sin, sp.cos):
         return grouped
-    canon = pretty(TrigPoly.from_expr(expr), angles)
+    canon = pretty(TrigPoly.from_expr(expr), angles)   # grouped form is already the product form
     return canon if sp.count_ops(canon) < sp.count_ops(grouped) else grouped
 
 
@@ -579,16 +578,14 @@ def _independent_columns(cols, variables, known):
     sample_syms = [s for s in syms if s.name not in known]
     known_vals = {s: float(rng.uniform(0.5, 1.5)) for s in known_syms}
     npts = 6 + 2 * len(cols)
-    samples = [{s: float(rng.uniform(-1.5, 1.5)) for s in sample_syms} for _ in range(npts)]
-    numeric = []
-    for _, vec in cols:
-        f = sp.lambdify(syms, sp.Matrix([tp.to_expr() for tp in vec]), "numpy") if syms else None
-        vals = []
-        for smp in samples:
-            env = {**known_vals, **smp}
-            out = f(*[env[s] for s in syms]) if f else sp.Matrix([tp.to_expr() for tp in vec])
-            vals.extend(np.asarray(out, dtype=float).ravel())
-        numeric.append(np.array(vals))
+    samples = {s: rng.uniform(-1.5, 1.5, npts) for s in sample_syms}
+    env = {**{s: np.full(npts, v) for s, v in known_vals.items()}, **samples}
+    entries = [tp.to_expr() for _, vec in cols for tp in vec]
+    f = sp.lambdify(syms, entries, "numpy")   # one compiled function for every column
+    values = f(*[env[s] for s in syms]) if syms else entries
+    values = [np.broadcast_to(np.asarray(v, dtype=float), (npts,)) for v in values]
+    n_rows = len(cols[0][1]) if cols else 0
+    numeric = [np.concatenate(values[k * n_rows:(k + 1) * n_rows]) for k in range(len(cols))]
     basis, basis_num, coeffs = [], [], []
     for (psi, vec), num in zip(cols, numeric):
         if basis_num:
@@ -641,9 +638,30 @@ def _exact_combination(basis_vecs, target, known_syms, lam_numeric):
                     eqs[sp.expand(c)] = True
             else:
                 eqs[sp.expand(coeff)] = True
-    sol = sp.solve(list(eqs), lam, dict=True)
-    if not sol:
-        raise RuntimeError("internal error: a numerically dependent regressor column has no exact combination")
-    values = [sp.simplify(sol[0].get(l, 0)) for l in lam]
-    # free lambdas (if any) are set to zero
-    return [v.subs({l: 0 for l in lam}) for v in values]
+    values = _solve_linear(list(eqs), list(lam), known_syms)
+    return values
+
+
+def _solve_linear(eqs, unknowns, known_syms):
+    """Exact solution of a consistent, possibly overdetermined linear system whose coefficients are
+    functions of the known parameters: pick independent equations numerically, solve them exactly,
+    and verify the rest."""
+    A, b = sp.linear_eq_to_matrix(eqs, unknowns)
+    rng = np.random.default_rng(7)
+    point = {s: float(rng.uniform(0.5, 1.5)) for s in known_syms}
+    An = np.array(A.subs(point), dtype=float) if point else np.array(A, dtype=float)
+    rows: List[int] = []
+    for r in range(An.shape[0]):
+        trial = rows + [r]
+        if np.linalg.matrix_rank(An[trial]) == len(trial):
+            rows = trial
+        if len(rows) == len(unknowns):
+            break
+    if len(rows) < len(unknowns):
+        raise RuntimeError("internal error: the combination of regressor columns is not unique")
+    sol = A.extract(rows, list(range(len(unknowns)))).LUsolve(b.extract(rows, [0]))
+    sol = [sp.factor(sp.cancel(v)) for v in sol]
+    residual = (A * sp.Matrix(sol) - b).applyfunc(lambda e: sp.cancel(e))
+    if any(e != 0 for e in residual):
+        raise RuntimeError("internal error: regressor columns combine inconsistently")
+    return sol
