@@ -17,7 +17,7 @@ weighted-pseudoinverse identities. Values follow the conventions of ``kinematic`
   ``<name>_error_<J>_norm`` (checks).
 ``task_priority``: ``tasks`` [{jacobian, task}, ...] by decreasing priority. Answers ``<name>``,
   ``<name>_error_<k>`` (k = 1, 2, ...), ``<name>_error`` (stacked), ``<name>_error_norm``,
-  ``<name>_projected_<k>`` (J_k P_(k-1)), ``<name>_algorithmic_singularities`` (the levels k where
+  ``<name>_projected_<k>`` (J_k P_(k-1)) and ``<name>_projected_pinv_<k>``, ``<name>_algorithmic_singularities`` (the levels k where
   J_k P_(k-1) has lower rank than J_k).
 ``reduced_gradient``: ``jacobian``, ``task``, ``gradient`` ({objective}), ``alpha``, ``maximize``
   (default true). Answers ``<name>``, ``<name>_minors``, ``<name>_gradient_b``, ``<name>_grad``.
@@ -165,6 +165,7 @@ def task_priority_task(ctx, spec):
         ctx.answer(f"{name}_error_{k}", lev.error)
         ctx.answer(f"{name}_error_{k}_norm", float(np.linalg.norm(lev.error)))
         ctx.answer(f"{name}_projected_{k}", lev.projected)
+        ctx.answer(f"{name}_projected_pinv_{k}", red.pinv(lev.projected))
         errors.append(lev.error)
     e = np.concatenate(errors)
     ctx.answer(f"{name}_error", e)
