@@ -4,7 +4,7 @@ Values follow the conventions of ``kinematic`` (TaskData).
 
 ``static_torque``: tau = g(q) (with ``gravity: true``) + sum_k J_k^T F_k for ``forces``, a list of
   {label, point, force} or {label, point, stiffness, target} (a Cartesian spring at rest:
-  F = K (p_target - p(q))). Answers ``<name>`` (default tau), ``<name>_gravity``, and per force
+  F = K (p_target - p(q))), each with an optional ``sign`` (-1: the torque -J^T F that balances F). Answers ``<name>`` (default tau), ``<name>_gravity``, and per force
   ``F_<label>``, ``p_<label>``, ``J_<label>``.
 ``contact_force``: estimate a contact force from the joint torque it produces. ``torque`` (tau_c),
   ``sign`` (+1: tau_c = J_c^T F, the default; -1: tau = -J_c^T F balances F), ``link`` (a body
@@ -21,9 +21,11 @@ Values follow the conventions of ``kinematic`` (TaskData).
   sees), ``tau_<label>`` (J_c^T F, the momentum residual at steady state), ``J_<label>``,
   ``energy_detects_<label>`` and ``momentum_detects_<label>`` (1 or 0), ``link_<label>``
   (isolated link index, 0 if undetected).
-``impedance_gains``: ``mass`` (number, list or ``inertia`` for a constant M(q)), and either
-  ``omega`` and ``zeta`` or ``eigenvalue`` (double real eigenvalue -lambda). Answers ``K_d``,
-  ``D_d``, ``M_d``.
+``impedance_gains``: ``mass`` (number, expression, list, or ``inertia`` for a constant diagonal
+  M(q)), and either ``omega`` and ``zeta`` or ``eigenvalue`` (double real eigenvalue -lambda); symbols
+  without a value in ``given`` stay symbolic. Answers ``K_d``, ``D_d``, ``M_d`` (+ ``_<suffix>``).
+``force_capability``: ``point``, ``torque`` bounds, ``q``: the largest ||F|| sustainable in every
+  direction, min_i T_i / ||J_i||. Answers ``force_max``, ``force_limiting_joint``, ``column_norms``.
 """
 from __future__ import annotations
 
@@ -87,7 +89,7 @@ def static_torque_task(ctx, spec):
             K = np.diag(K * np.ones(p.size)) if K.ndim < 2 else K
             F = K @ (target - p)
             how = f"Cartesian spring F = K (p_d - p) with p = {vec(p)}."
-        t = con.static_torque(J, F)
+        t = float(f.get("sign", 1)) * con.static_torque(J, F)
         tau += t
         ctx.step(f"Force {label}", rf"F_{{{label}}} = {vec(F)},\quad J^T = {mat(J.T)},\quad J^T F = {vec(t)}", how,
                  vectors=[_highlight_force(label, p, F)], configuration=conf)
@@ -227,26 +229,58 @@ def collision_analysis_task(ctx, spec):
 
 @task("impedance_gains")
 def impedance_gains_task(ctx, spec):
-    """Stiffness and damping of a desired impedance from its time behaviour."""
+    """Stiffness and damping of a desired impedance from its time behaviour (symbolic or numeric)."""
     d = data(ctx)
     mass = spec.get("mass", 1)
+
+    def value(x, where):
+        expr = d.expression(x, where) if isinstance(x, str) else sp.nsimplify(x)
+        subs = {}
+        for sym in expr.free_symbols:
+            if sym.name in ctx.given:
+                subs[sym] = sp.nsimplify(d.number(sym.name, where))
+        return expr.xreplace(subs)
+
     if isinstance(mass, str) and mass == "inertia":
-        M = np.asarray(d.ctx.numeric.M(np.zeros(d.robot.n)), float)
-        if not np.allclose(M, np.diag(np.diag(M))):
+        M = ctx.dynamics().M
+        if any(M[i, j] != 0 for i in range(M.rows) for j in range(M.cols) if i != j) or M.free_symbols & set(d.robot.q):
             raise d._fail("impedance_gains: mass 'inertia' needs a constant diagonal inertia matrix")
-        m = np.diag(M)
+        m = [M[i, i] for i in range(M.rows)]
     else:
-        m = d.array(mass, "mass").reshape(-1)
+        m = [value(x, "mass") for x in (mass if isinstance(mass, list) else [mass])]
+    m = sp.Matrix(m)
     if "eigenvalue" in spec:
-        lam = d.number(spec["eigenvalue"], "eigenvalue")
-        K, D = con.critically_damped_gains(m, lam)
-        how = rf"(s + \lambda)^2:\ D_d = 2 M_d \lambda,\ K_d = M_d \lambda^2,\ \lambda = {num(lam)}"
+        lam = value(spec["eigenvalue"], "eigenvalue")
+        K, D = m * lam ** 2, 2 * lam * m
+        how = rf"(s + \lambda)^2:\ D_d = 2 M_d \lambda,\ K_d = M_d \lambda^2"
     else:
-        w, z = d.number(spec["omega"], "omega"), d.number(spec["zeta"], "zeta")
-        K, D = con.impedance_gains(m, w, z)
-        how = rf"s^2 + 2\zeta\omega_n s + \omega_n^2:\ \omega_n = {num(w)},\ \zeta = {num(z)}"
-    ctx.step("Impedance gains", how + rf",\quad M_d = {vec(m)},\ K_d = {vec(K)},\ D_d = {vec(D)}",
+        w, z = value(spec["omega"], "omega"), value(spec["zeta"], "zeta")
+        K, D = m * w ** 2, 2 * z * w * m
+        how = rf"s^2 + 2\zeta\omega_n s + \omega_n^2:\ \omega_n = {sp.latex(w)},\ \zeta = {sp.latex(z)}"
+    K, D = K.applyfunc(sp.expand), D.applyfunc(sp.expand)
+    ctx.step("Impedance gains", how + rf",\quad M_d = {sp.latex(m.T)},\ K_d = {sp.latex(K.T)},\ D_d = {sp.latex(D.T)}",
              "M_d x'' + D_d x' + K_d x = F along each direction.")
-    ctx.answer("M_d", m if m.size > 1 else float(m[0]))
-    ctx.answer("K_d", K if np.size(K) > 1 else float(np.reshape(K, -1)[0]))
-    ctx.answer("D_d", D if np.size(D) > 1 else float(np.reshape(D, -1)[0]))
+    one = lambda X: X[0] if X.rows == 1 else X
+    suffix = f"_{spec['suffix']}" if spec.get("suffix") else ""
+    ctx.answer("M_d" + suffix, one(m))
+    ctx.answer("K_d" + suffix, one(K))
+    ctx.answer("D_d" + suffix, one(D))
+
+
+@task("force_capability")
+def force_capability_task(ctx, spec):
+    """Largest force norm a point can sustain in every direction under joint torque bounds."""
+    d = data(ctx)
+    q = d.configuration(spec.get("q"))
+    J, p = _point_jacobian(d, spec.get("point", "ee"), q)
+    T = d.array(spec["torque"], "torque") * np.ones(d.robot.n)
+    norms = np.linalg.norm(J, axis=0)
+    limits = np.where(norms > 1e-12, T / np.where(norms > 1e-12, norms, 1.0), np.inf)
+    r = float(limits.min())
+    joint = int(np.argmin(limits)) + 1
+    ctx.step("Force capability", rf"|\tau_i| = |J_i^T F| \le \|J_i\|\,\|F\| \le T_i\ \Rightarrow\ \|F\| \le \min_i \frac{{T_i}}{{\|J_i\|}} = {num(r)}",
+             f"Column norms of J: {', '.join(num(x) for x in norms)}; joint {joint} limits the force (equality for F along its column).",
+             configuration={c: float(v) for c, v in zip(d.robot.coordinates, q)})
+    ctx.answer("force_max", r)
+    ctx.answer("force_limiting_joint", joint)
+    ctx.answer("column_norms", norms)

@@ -27,6 +27,10 @@ weighted-pseudoinverse identities. Values follow the conventions of ``kinematic`
   Answers ``<name>``, ``<name>_scale``, ``<name>_norm``, ``<name>_iterations`` and per iteration k
   ``<name>_candidate_<k>``, ``<name>_task_<k>``, ``<name>_pinv_<k>`` (pseudoinverse of the
   columns of the free joints).
+``fastest_stop``: ``jacobian`` (a symbolic jacobian task), ``joint_velocity``, ``bounds`` on the
+  joint accelerations: the fastest deceleration p'' = -lambda p'. Answers ``<name>`` (u*),
+  ``<name>_lambda``, ``<name>_a``, ``<name>_b``, ``<name>_drift``, ``<name>_ddp``,
+  ``<name>_feasible`` (1 or 0).
 ``weighted_pinv_identity``: ``jacobian``, ``weights``: J_W^# computed as W^-1 J^T (J W^-1 J^T)^-1
   and as W^(-1/2) (J W^(-1/2))^#, and the three Moore-Penrose-like identities. Answers
   ``<name>`` (J_W^#), ``<name>_direct``, ``<name>_identities`` (list of residual norms).
@@ -244,3 +248,39 @@ def weighted_pinv_identity_task(ctx, spec):
     ctx.step("Identities", r"\|J J_W^\# J - J\| = %s,\ \|J_W^\# J J_W^\# - J_W^\#\| = %s,\ \|(J J_W^\#)^T - J J_W^\#\| = %s,\ \|(W J_W^\# J)^T - W J_W^\# J\| = %s"
              % tuple(num(x, 12) for x in ids), "All zero (to round-off).")
     ctx.answer(f"{name}_identities", [float(x) for x in ids])
+
+
+@task("fastest_stop")
+def fastest_stop_task(ctx, spec):
+    """Stop the end effector as fast as possible along its current direction with bounded joint
+    accelerations: p'' = -lambda p', u = J^# (p'' - J' q') = lambda a + b, the largest feasible
+    lambda (a one-dimensional linear program)."""
+    d = data(ctx)
+    name = spec.get("name", "u")
+    ref = spec.get("jacobian", "J")
+    J = d.jacobian(ref)
+    dq = d.array(spec["joint_velocity"], "joint_velocity").reshape(-1)
+    h = d.drift(ref, dq)
+    lo, hi = d.bounds(spec.get("bounds") or {}, J.shape[1])
+    Jp = red.pinv(J)
+    dp = J @ dq
+    a, b = -Jp @ dp, -Jp @ h
+    lam = red.max_scaling(a, b, lo, hi, np.inf)
+    ctx.step("Affine family of commands", rf"\dot p = {vec(dp)},\ \dot J \dot q = {vec(h)},\quad u(\lambda) = \lambda a + b,\ a = -J^\# \dot p = {vec(a)},\ b = -J^\# \dot J\dot q = {vec(b)}",
+             "Every lambda >= 0 decelerates the end effector along its velocity; the bounds limit lambda from above and possibly from below.")
+    ctx.answer(f"{name}_a", a)
+    ctx.answer(f"{name}_b", b)
+    ctx.answer(f"{name}_drift", h)
+    if lam is None:
+        ctx.step("Infeasible", r"\{\lambda \ge 0 : u_{min} \le \lambda a + b \le u_{max}\} = \emptyset",
+                 "No joint acceleration within the bounds decelerates the end effector along its velocity.")
+        ctx.answer(f"{name}_feasible", 0)
+        return
+    u = lam * a + b
+    ctx.step("Fastest stop", rf"\lambda^* = {num(lam)},\quad u^* = {vec(u)},\quad \ddot p = {vec(J @ u + h)}",
+             "The largest lambda keeping every joint acceleration within its bounds.",
+             joint_values=[{"label": "u*", "values": u.tolist(), "lower": lo.tolist(), "upper": hi.tolist()}])
+    ctx.answer(f"{name}_feasible", 1)
+    ctx.answer(f"{name}_lambda", lam)
+    ctx.answer(name, u)
+    ctx.answer(f"{name}_ddp", J @ u + h)
