@@ -1,0 +1,673 @@
+"""Underactuated and constrained mechanical systems: partial feedback linearization, linearization
+about an equilibrium, steady rotations, reduced dynamics under holonomic constraints, changes of
+coordinates and accelerations at a state. Everything is computed from the robot's Lagrangian model
+
+    M(q) q'' + n(q, q') = S u,     n = c + g + k + F_v q' (+ Coulomb),
+
+where S selects the actuated coordinates (the robot file's ``actuated``, or the task's ``passive``).
+
+Task kinds (options -> answers):
+
+- ``pfl``: partial feedback linearization, collocated or not, for any set of passive coordinates.
+  Options: ``passive`` (default: the robot's non-actuated coordinates), ``linearize`` (the
+  coordinates that get q''_i = a_i, as many as the inputs; default: the actuated ones, i.e.
+  collocated), ``inputs`` (names of the new inputs; default a<i> for coordinate i), ``outer``
+  (mapping input -> expression: an outer loop substituted into the law), ``rest`` (mapping
+  linearized coordinate -> value: the residual dynamics with those coordinates at rest there).
+  Answers: ``u`` (the law, one entry per actuated coordinate), ``M_reduced``, ``n_reduced``,
+  ``reduced_equation`` (M_reduced q''_L + n_reduced, equal to u), ``closed_loop`` (q'' of every
+  coordinate as a function of q, q', a), ``u_outer``, ``residual`` (q'' of the other coordinates
+  at rest) and ``u_rest``; ``suffix`` is appended to every answer name (two PFL designs in one
+  exercise).
+- ``linearization``: small motions about an equilibrium. Options: ``at`` (coordinate -> value;
+  velocities are zero). Answers: ``u0`` (equilibrium input on every coordinate), ``M0``, ``D``,
+  ``K`` (M0 dq'' + D dq' + K dq = S du), ``A``, ``B`` (state x = (dq, dq')).
+- ``steady_rotation``: constant-speed rotations. Options: ``spin`` (coordinate -> constant speed,
+  e.g. ``{q1: Omega}``), ``free`` (coordinates that stay constant and are solved for; default all
+  the others), ``zero`` (coordinates whose generalized force must vanish; default the passive
+  ones). Answers: ``torque`` (generalized forces needed along the rotation, as functions of the
+  constant coordinates), ``equilibria`` (one row per solution of the ``zero`` rows, sorted).
+- ``reduced_dynamics``: holonomic constraint h(q) = 0. Options: ``constraint`` (expression, or a
+  list of expressions), ``D`` (rows completing A = dh/dq to a nonsingular matrix; the
+  pseudo-velocity is v = D(q) q'), or ``pseudo_velocity: {point, direction}`` (v = speed of a
+  named point along a direction), ``point`` (a named point whose coordinates px, py, pz may appear
+  in the constraint), ``passive`` (unactuated coordinates), ``evaluate`` (answers at one state:
+  ``state``, or ``place: {point, at, guess}`` solved by numeric inverse kinematics; the desired
+  pseudo-acceleration ``dv`` or ``timing: {profile: cubic|quintic, length, duration, t}``).
+  Answers: ``h``, ``A``, ``A_dot``, ``A_pinv`` (A#_M = M^-1 A^T (A M^-1 A^T)^-1), ``P``
+  (I - A^T A#^T), ``lambda`` (the multiplier with M q'' + n = S u + A^T lambda, inputs u1..),
+  ``D``, ``v``, ``D_dot``, ``E``, ``F`` ([A; D]^-1 = [E F]), ``M_v`` (F^T M F), ``n_v``
+  (F^T (n - M (E A' + F D') q')), ``B_v`` (F^T S; the reduced model is M_v v' + n_v = B_v u),
+  ``qdd`` (q'' = F v' - (E A' + F D') q'), ``u_track`` (M q'' + n: the input giving v' with zero
+  constraint force when all joints are actuated), ``u_reduced`` (B_v^-1 (M_v v' + n_v)), and at
+  the evaluated state ``q_at``, ``M_at``, ``g_at``, ``F_at``, ``u_track_at``, ``u_reduced_at``,
+  ``Delta``, ``dv_at``. With ``numeric_data: true`` the exercise's numbers that are not robot
+  parameters (e.g. the points of a segment) are substituted after A(q), keeping the rest readable.
+- ``coordinate_change``: linear change of coordinates p = J q. Options: ``map`` (new coordinate ->
+  expression of q). Answers: ``J``, ``J_inv``, ``q_of_p``, ``M_p``, ``c_p``, ``g_p``, ``tau_p``.
+- ``accelerations``: q'' = M^-1 (S u - n) at a state. Options: ``state`` (coordinate or velocity
+  -> value), ``inputs`` (actuated coordinate -> value or expression). Answers: ``ddq``.
+
+>>> from app.core.expressions import symbol
+>>> q2 = symbol("q2")
+>>> tidy((sp.cos(q2)**2 + sp.sin(q2)**2) / symbol("m"))
+1/m
+"""
+from __future__ import annotations
+
+from typing import Dict, List, Sequence
+
+import numpy as np
+import sympy as sp
+
+from ..dynamics import natural_angles, pretty
+from ..exercise import ExerciseError
+from ..expressions import symbol
+from ..kinematics import Kinematics
+from ..steps import to_latex
+from ..trig import TrigPoly
+from . import task
+
+
+# ====================================================================== shared helpers
+def tidy(expr, angles: Sequence = ()) -> sp.Expr:
+    """Compact form of a rational trigonometric expression: numerator and denominator through the
+    exact canonical form; a denominator free of trigonometric terms divides each coefficient."""
+    expr = sp.sympify(expr)
+    if expr.is_number or not expr.free_symbols:
+        return expr
+    num, den = sp.fraction(sp.together(expr))
+    num_tp = TrigPoly.from_expr(sp.expand(num)).expand()
+    den_tp = TrigPoly.from_expr(sp.expand(den)).expand()
+    common = sp.gcd_list(list(num_tp.terms.values()) + list(den_tp.terms.values()))
+    if common != 0 and common != 1:
+        num_tp = TrigPoly({k: sp.cancel(c / common) for k, c in num_tp.terms.items()})
+        den_tp = TrigPoly({k: sp.cancel(c / common) for k, c in den_tp.terms.items()})
+    if all(not freq for (freq, _kind) in den_tp.terms):
+        d = den_tp.to_expr()
+        if d == 0:
+            raise ZeroDivisionError("denominator is zero")
+        num_tp = TrigPoly({k: sp.factor(sp.cancel(c / d)) for k, c in num_tp.terms.items()})
+        return pretty(num_tp, angles)
+    return pretty(num_tp, angles) / pretty(den_tp, angles)
+
+
+def tidy_matrix(mat, angles: Sequence = ()) -> sp.Matrix:
+    return sp.Matrix(mat).applyfunc(lambda e: tidy(e, angles))
+
+
+class Model:
+    """The model terms a task needs, with the printer and the robot's natural angles."""
+
+    def __init__(self, ctx):
+        self.ctx = ctx
+        self.robot = ctx.robot
+        self.dyn = ctx.dynamics()
+        self.q = sp.Matrix(self.robot.q)
+        self.dq = sp.Matrix(self.robot.dq)
+        self.ddq = sp.Matrix(self.robot.ddq)
+        self.M = self.dyn.M
+        self.C = self.dyn.C
+        self.n = self.dyn.c + self.dyn.g + self.dyn.spring + self.dyn.friction
+        self.angles = natural_angles(Kinematics(self.robot))
+        self.coords = list(self.robot.coordinates)
+
+    def L(self, expr) -> str:
+        return to_latex(expr, self.coords)
+
+    def tidy(self, expr):
+        return tidy(expr, self.angles)
+
+    def tidy_matrix(self, mat):
+        return tidy_matrix(mat, self.angles)
+
+    def indices(self, names, where: str) -> List[int]:
+        if isinstance(names, str):
+            names = [names]
+        if not isinstance(names, (list, tuple)):
+            raise ExerciseError(f"{where}: expected a list of coordinate names, got {names!r}")
+        out = []
+        for name in names:
+            if name not in self.coords:
+                raise ExerciseError(f"{where}: '{name}' is not a coordinate of {self.robot.name} "
+                                    f"({', '.join(self.coords)})")
+            out.append(self.coords.index(name))
+        return out
+
+    def bodies_of(self, idx: Sequence[int]) -> List[str]:
+        """Bodies whose joint is moved by the given coordinates (for highlighting)."""
+        syms = {self.q[i] for i in idx}
+        return [b.name for b in self.robot.bodies if b.joint.value.free_symbols & syms]
+
+    def expr(self, value, where: str, allow_coordinates=True):
+        e = self.ctx.expr(value, where)
+        return e
+
+    def new_symbols(self, names, where: str) -> List[sp.Symbol]:
+        taken = set(self.robot.parameters) | set(self.coords)
+        taken |= {"d" + c for c in self.coords} | {"dd" + c for c in self.coords}
+        out = []
+        for name in names:
+            if not isinstance(name, str) or not name.isidentifier():
+                raise ExerciseError(f"{where}: '{name}' is not a valid name")
+            if name in taken:
+                raise ExerciseError(f"{where}: name '{name}' is already used by the robot {self.robot.name}")
+            out.append(symbol(name))
+        return out
+
+    def mapping(self, spec, where: str, keys="coordinates") -> Dict[sp.Symbol, sp.Expr]:
+        """{name: expression} -> {symbol: sympy expression}; names must be coordinates (or their
+        velocities when keys == 'state')."""
+        if spec is None:
+            return {}
+        if not isinstance(spec, dict):
+            raise ExerciseError(f"{where}: expected a mapping name: value")
+        allowed = set(self.coords)
+        if keys == "state":
+            allowed |= {"d" + c for c in self.coords}
+        out = {}
+        for name, value in spec.items():
+            if name not in allowed:
+                raise ExerciseError(f"{where}: '{name}' is not a coordinate{' or velocity' if keys == 'state' else ''} "
+                                    f"of {self.robot.name}")
+            out[symbol(name)] = self.ctx.expr(value, f"{where}.{name}")
+        return out
+
+    def selection(self, actuated: Sequence[bool]) -> sp.Matrix:
+        cols = [i for i, a in enumerate(actuated) if a]
+        S = sp.zeros(len(actuated), len(cols))
+        for k, i in enumerate(cols):
+            S[i, k] = 1
+        return S
+
+
+def _inverse(mat: sp.Matrix) -> sp.Matrix:
+    """Exact inverse through the adjugate (small matrices)."""
+    det = sp.expand(mat.det())
+    if TrigPoly.from_expr(det).is_zero():
+        raise ExerciseError("the matrix to invert is singular everywhere")
+    return mat.adjugate() / det
+
+
+# ====================================================================== PFL
+@task("pfl")
+def pfl_task(ctx, spec):
+    """Partial feedback linearization (see the module docstring for options and answers)."""
+    m = Model(ctx)
+    n = len(m.coords)
+    if "passive" in spec:
+        passive = m.indices(spec["passive"], "pfl.passive")
+    else:
+        passive = [i for i, a in enumerate(m.robot.actuated) if not a]
+    if not passive:
+        raise ExerciseError("pfl: the robot is fully actuated; name the passive coordinates with 'passive'")
+    act = [i for i in range(n) if i not in passive]
+    lin = m.indices(spec["linearize"], "pfl.linearize") if "linearize" in spec else list(act)
+    if len(lin) != len(act):
+        raise ExerciseError(f"pfl.linearize: {len(act)} input(s) can linearize exactly {len(act)} coordinate(s), "
+                            f"got {len(lin)}")
+    oth = [i for i in range(n) if i not in lin]
+    names = spec.get("inputs") or [f"a{i + 1}" for i in lin]
+    if len(names) != len(lin):
+        raise ExerciseError("pfl.inputs: one name per linearized coordinate")
+    a = sp.Matrix(m.new_symbols(names, "pfl.inputs"))
+    collocated = sorted(lin) == sorted(act)
+    M, nv = m.M, m.n
+    blk = lambda rows, cols: M.extract(rows, cols)
+    M_PO, M_PL = blk(passive, oth), blk(passive, lin)
+    M_AL, M_AO = blk(act, lin), blk(act, oth)
+    det = sp.expand(M_PO.det())
+    if TrigPoly.from_expr(det).is_zero():
+        raise ExerciseError("pfl: the passive equations do not involve the remaining accelerations "
+                            "(the inertia block is singular): this choice cannot be linearized")
+    inv = M_PO.adjugate() / det
+    X = -inv * M_PL
+    y = -inv * nv.extract(passive, [0])
+    M_red = m.tidy_matrix(M_AL + M_AO * X)
+    n_red = m.tidy_matrix(nv.extract(act, [0]) + M_AO * y)
+    u = m.tidy_matrix(M_red * a + n_red)
+    ddq = sp.zeros(n, 1)
+    for k, i in enumerate(lin):
+        ddq[i] = a[k]
+    ddq_o = m.tidy_matrix(X * a + y)
+    for k, i in enumerate(oth):
+        ddq[i] = ddq_o[k]
+    qn = lambda idx: ", ".join(m.coords[i] for i in idx)
+    ddq_L = sp.Matrix([m.ddq[i] for i in lin])
+    ddq_O = sp.Matrix([m.ddq[i] for i in oth])
+    passive_bodies = m.bodies_of(passive)
+    kind = "collocated" if collocated else "non-collocated"
+    ctx.step("Actuated and passive equations",
+             rf"M_{{AL}} {m.L(ddq_L)} + M_{{AO}} {m.L(ddq_O)} + n_A = u,\quad "
+             rf"M_{{PL}} {m.L(ddq_L)} + M_{{PO}} {m.L(ddq_O)} + n_P = 0,\quad M_{{PO}} = {m.L(M_PO)}",
+             f"Split the model into the rows of the actuated ({qn(act)}) and passive ({qn(passive)}) "
+             f"coordinates; {kind} PFL imposes q'' = a on {qn(lin)}.",
+             bodies=passive_bodies, joints=passive_bodies)
+    cond = m.tidy(det)
+    ctx.step("Accelerations of the other coordinates",
+             rf"{m.L(ddq_O)} = -M_{{PO}}^{{-1}}\left(M_{{PL}} {m.L(a)} + n_P\right) = {m.L(ddq_o)}",
+             "Solve the passive equations for the remaining accelerations"
+             + ("." if not cond.free_symbols & set(m.q) else
+                f"; this needs det M_PO = {cond} != 0 (strong inertial coupling)."),
+             bodies=m.bodies_of(oth))
+    ctx.step("Reduced equation",
+             rf"{m.L(M_red)} {m.L(ddq_L)} + {m.L(n_red)} = u",
+             "Substitute them into the actuated equations: the inputs now act on q''_L through "
+             "this reduced inertia.", bodies=m.bodies_of(lin), joints=m.bodies_of(act))
+    ctx.step("Linearizing feedback",
+             rf"u = {m.L(M_red)} {m.L(a)} + {m.L(n_red)} = {m.L(u)}",
+             f"Choosing u this way gives q'' = a on {qn(lin)} exactly and globally (wherever it is defined).",
+             joints=m.bodies_of(act))
+    ctx.step("Closed loop", rf"\ddot q = {m.L(ddq)}",
+             f"The linearized coordinates follow a; {qn(oth)} obey the remaining (zero) dynamics.",
+             bodies=m.bodies_of(oth))
+    sfx = str(spec.get("suffix", ""))
+    ctx.answer("u" + sfx, u)
+    ctx.answer("M_reduced" + sfx, M_red)
+    ctx.answer("n_reduced" + sfx, n_red)
+    ctx.answer("reduced_equation" + sfx, m.tidy_matrix(M_red * ddq_L + n_red))
+    ctx.answer("closed_loop" + sfx, ddq)
+    outer = spec.get("outer")
+    if outer:
+        if not isinstance(outer, dict) or not set(outer) <= set(names):
+            raise ExerciseError(f"pfl.outer: expected a mapping input -> expression for the inputs {names}")
+        sub = {symbol(k): ctx.expr(v, f"pfl.outer.{k}") for k, v in outer.items()}
+        u_outer = m.tidy_matrix(u.subs(sub))
+        ctx.step("Outer loop", ", ".join(rf"{m.L(symbol(k))} = {m.L(v)}" for k, v in sub.items())
+                 + rf",\quad u = {m.L(u_outer)}",
+                 "A stabilizing choice of the new inputs, substituted into the law.")
+        ctx.answer("u_outer" + sfx, u_outer)
+    rest = spec.get("rest")
+    if rest:
+        at = m.mapping(rest, "pfl.rest")
+        if not {m.coords.index(s.name) for s in at} <= set(lin):
+            raise ExerciseError("pfl.rest: only linearized coordinates can be put at rest")
+        sub = dict(at)
+        for s in at:
+            i = m.coords.index(s.name)
+            sub[m.dq[i]] = 0
+            sub[a[lin.index(i)]] = 0
+        residual = m.tidy_matrix(ddq_o.subs(sub))
+        u_rest = m.tidy_matrix(u.subs(sub))
+        ctx.step("Residual dynamics",
+                 rf"{m.L(ddq_O)} = {m.L(residual)},\quad u = {m.L(u_rest)}",
+                 "With the linearized coordinates at rest at their targets, the other coordinates "
+                 "move under what is left; the input keeps compensating them.",
+                 bodies=m.bodies_of(oth))
+        ctx.answer("residual" + sfx, residual)
+        ctx.answer("u_rest" + sfx, u_rest)
+
+
+# ====================================================================== linearization
+@task("linearization")
+def linearization_task(ctx, spec):
+    """Linear approximation about an equilibrium (see the module docstring)."""
+    m = Model(ctx)
+    at = m.mapping(spec.get("at"), "linearization.at")
+    zero_v = {d: 0 for d in m.dq}
+    robot = m.robot
+    static = m.dyn.g + m.dyn.spring
+    u0 = m.tidy_matrix(static.subs(at))
+    for i, a in enumerate(robot.actuated):
+        if not a and not TrigPoly.from_expr(u0[i]).is_zero():
+            raise ExerciseError(f"linearization: not an equilibrium: the passive coordinate {m.coords[i]} "
+                                f"feels the static force {u0[i]}")
+    viscous = sp.Matrix([robot.viscous.get(c, 0) * m.dq[i] for i, c in enumerate(m.coords)])
+    M0 = m.tidy_matrix(m.M.subs(at))
+    D = m.tidy_matrix((m.dyn.c + viscous).jacobian(m.dq).subs(zero_v).subs(at))
+    K = m.tidy_matrix(static.jacobian(m.q).subs(at))
+    S = m.selection(robot.actuated)
+    n = len(m.coords)
+    Minv = _inverse(M0)
+    A = sp.zeros(2 * n, 2 * n)
+    A[:n, n:] = sp.eye(n)
+    A[n:, :n] = m.tidy_matrix(-Minv * K)
+    A[n:, n:] = m.tidy_matrix(-Minv * D)
+    B = sp.zeros(2 * n, S.cols)
+    B[n:, :] = m.tidy_matrix(Minv * S)
+    dq_, dv, da = (sp.Matrix([sp.Symbol(r"\Delta " + to_latex(s, m.coords)) for s in v]) for v in (m.q, m.dq, m.ddq))
+    where = ", ".join(f"{k} = {v}" for k, v in at.items()) or "the given state"
+    ctx.step("Equilibrium", rf"q_0:\ {where},\quad \dot q_0 = 0,\quad u_0 = g(q_0) + k(q_0) = {m.L(u0)}",
+             "At rest, the input only has to balance gravity and springs; passive coordinates must feel none.",
+             bodies=[b.name for b in robot.bodies])
+    ctx.step("Linearized model",
+             rf"{m.L(M0)} \Delta\ddot q + {m.L(D)} \Delta\dot q + {m.L(K)} \Delta q = {m.L(S)} \Delta u",
+             "First-order expansion: M(q0) for the inertia, damping from viscous friction "
+             "(Coriolis terms are quadratic in q' and vanish), stiffness from the gradient of g + k.")
+    ctx.step("State space", rf"\dot x = {m.L(A)} x + {m.L(B)} \Delta u",
+             "With x = (Δq, Δq').")
+    ctx.answer("u0", u0)
+    ctx.answer("M0", M0)
+    ctx.answer("D", D)
+    ctx.answer("K", K)
+    ctx.answer("A", A)
+    ctx.answer("B", B)
+
+
+# ====================================================================== steady rotations
+def _sort_solutions(rows, values):
+    def key(row):
+        try:
+            return (0, [float(sp.N(e.subs(values))) for e in row])
+        except (TypeError, ValueError):
+            return (1, [sp.default_sort_key(e) for e in row])
+    return sorted(rows, key=key)
+
+
+@task("steady_rotation")
+def steady_rotation_task(ctx, spec):
+    """Steady rotations at constant speed (see the module docstring)."""
+    m = Model(ctx)
+    spin = m.mapping(spec.get("spin"), "steady_rotation.spin")
+    if not spin:
+        raise ExerciseError("steady_rotation.spin: give at least one coordinate and its constant speed")
+    spin_idx = [m.coords.index(s.name) for s in spin]
+    free = (m.indices(spec["free"], "steady_rotation.free") if "free" in spec
+            else [i for i in range(len(m.coords)) if i not in spin_idx])
+    zero = (m.indices(spec["zero"], "steady_rotation.zero") if "zero" in spec
+            else [i for i, a in enumerate(m.robot.actuated) if not a])
+    sub = {d: 0 for d in m.dq}
+    for s, w in spin.items():
+        sub[m.dq[m.coords.index(s.name)]] = w
+    torque = m.tidy_matrix(m.n.subs(sub))
+    spun = ", ".join(rf"\dot {to_latex(s, m.coords)} = {m.L(w)}" for s, w in spin.items())
+    ctx.step("Forces along a steady rotation", rf"{spun},\ \ddot q = 0:\quad u = n(q, \dot q) = {m.L(torque)}",
+             "With constant speeds and the other coordinates at rest, only velocity, friction, "
+             "gravity and spring terms remain.", bodies=m.bodies_of(spin_idx))
+    ctx.answer("torque", torque)
+    if not zero:
+        return
+    unknowns = [m.q[i] for i in free]
+    eqs = [torque[i] for i in zero]
+    try:
+        sols = sp.solve(eqs, unknowns, dict=True)
+    except NotImplementedError:
+        sols = []
+    if not sols:
+        raise ExerciseError("steady_rotation: no closed-form solution of the steady-state equations")
+    rows = [[tidy(s.get(u, u)) for u in unknowns] for s in sols]
+    values = {p.symbol: p.value for p in m.robot.parameters.values()}
+    values.update({k: v for k, v in ((symbol(k), v) for k, v in ctx.given.items())})
+    rows = _sort_solutions(rows, values)
+    eq_latex = r",\quad ".join(f"{m.L(e)} = 0" for e in eqs)
+    sol_latex = r",\quad ".join(m.L(sp.Matrix(r)) for r in rows)
+    ctx.step("Steady configurations", rf"{eq_latex}\ \Rightarrow\ {m.L(sp.Matrix(unknowns))} \in \left\{{{sol_latex}\right\}}",
+             "The unactuated (or unloaded) rows must vanish: these are the constant configurations "
+             "compatible with the rotation (real only where the arguments are in range).",
+             bodies=m.bodies_of(free))
+    ctx.answer("equilibria", sp.Matrix(rows))
+
+
+# ====================================================================== constrained dynamics
+_PROFILES = {   # rest-to-rest timing laws s(sigma) / Delta, sigma = t / T in [0, 1]
+    "cubic": lambda s: 3 * s ** 2 - 2 * s ** 3,
+    "quintic": lambda s: 10 * s ** 3 - 15 * s ** 4 + 6 * s ** 5,
+}
+
+
+def _point_position(m: Model, name: str, where: str) -> sp.Matrix:
+    if name not in m.robot.points:
+        raise ExerciseError(f"{where}: the robot {m.robot.name} has no point '{name}' "
+                            f"(points: {', '.join(m.robot.points) or 'none'})")
+    pt = m.robot.points[name]
+    return Kinematics(m.robot).point_position(pt.body, pt.position)
+
+
+def _given_values(ctx) -> Dict[sp.Symbol, sp.Expr]:
+    """The exercise's numbers (robot parameters and task data) as a substitution."""
+    out = {}
+    for k, v in ctx.given.items():
+        out[symbol(k)] = ctx.expr(v, f"given.{k}")
+    return out
+
+
+def _time_derivative(mat: sp.Matrix, q, dq) -> sp.Matrix:
+    out = sp.zeros(*mat.shape)
+    for qk, dk in zip(q, dq):
+        out += mat.diff(qk) * dk
+    return out
+
+
+@task("reduced_dynamics")
+def reduced_dynamics_task(ctx, spec):
+    """Dynamics under holonomic constraints (see the module docstring)."""
+    from ..expressions import ExpressionError, parse_expression
+    m = Model(ctx)
+    n = len(m.coords)
+    extra = {}
+    if spec.get("point"):
+        pos = _point_position(m, spec["point"], "reduced_dynamics.point")
+        extra = {"px": pos[0], "py": pos[1], "pz": pos[2]}
+    raw = spec.get("constraint")
+    if raw is None:
+        raise ExerciseError("reduced_dynamics.constraint: give h(q) = 0 (an expression or a list)")
+    raw = raw if isinstance(raw, list) else [raw]
+    try:
+        h = sp.Matrix([parse_expression(c, extra=extra) for c in raw])
+    except ExpressionError as exc:
+        raise ExerciseError(f"reduced_dynamics.constraint: {exc}") from None
+    h = m.tidy_matrix(h)
+    k = h.rows
+    A = m.tidy_matrix(h.jacobian(m.q))
+    if all(TrigPoly.from_expr(e).is_zero() for e in A):
+        raise ExerciseError("reduced_dynamics.constraint: h does not depend on the coordinates")
+    A_dot = m.tidy_matrix(_time_derivative(A, m.q, m.dq))
+    passive = m.indices(spec["passive"], "reduced_dynamics.passive") if "passive" in spec else \
+        [i for i, a in enumerate(m.robot.actuated) if not a]
+    actuated = [i not in passive for i in range(n)]
+    S = m.selection(actuated)
+    u = sp.Matrix([symbol(f"u{i + 1}") for i in range(S.cols)])
+    hb = m.bodies_of(range(n))
+    ctx.step("Constraint", rf"h(q) = {m.L(h)} = 0,\quad A(q) = \frac{{\partial h}}{{\partial q}} = {m.L(A)},\quad "
+             rf"\dot A = {m.L(A_dot)}",
+             "The constraint holds at all times, so A(q) q' = 0 and A q'' + A' q' = 0.", bodies=hb)
+    ctx.answer("h", h)
+    ctx.answer("A", A)
+    ctx.answer("A_dot", A_dot)
+    data = {}
+    if spec.get("numeric_data"):
+        data = {k_: sp.nsimplify(v, rational=True) for k_, v in _given_values(ctx).items()
+                if k_.name not in m.robot.parameters}
+        A, A_dot = A.subs(data), A_dot.subs(data)
+        ctx.step("Numbers of the constraint", rf"A(q) = {m.L(A)}",
+                 f"The data of the constraint ({', '.join(s_.name for s_ in data)}) are substituted from here on.")
+    # M^-1 = adj(M) / det(M): the determinant cancels in A# and lambda
+    adj, det_M = m.M.adjugate(), m.M.det()
+    AMA_inv = _inverse((A * adj * A.T).applyfunc(sp.expand))
+    A_pinv = m.tidy_matrix(adj * A.T * AMA_inv)
+    P = m.tidy_matrix(sp.eye(n) - A.T * A_pinv.T)
+    lam = m.tidy_matrix(-AMA_inv * (A * adj * (S * u - m.n) + det_M * A_dot * m.dq))
+    ctx.step("Multiplier and projection",
+             rf"M\ddot q + n = S u + A^T\lambda,\quad A^\#_M = M^{{-1}}A^T(AM^{{-1}}A^T)^{{-1}} = {m.L(A_pinv)},\quad "
+             rf"\lambda = {m.L(lam)}",
+             "Solve for the constraint force; substituting it gives the dynamically consistent "
+             "projection M q'' = (I - A^T A#^T)(S u - n) - M A# A' q'.")
+    ctx.answer("A_pinv", A_pinv)
+    ctx.answer("P", P)
+    ctx.answer("lambda", lam)
+    D = None
+    if "D" in spec:
+        rows = spec["D"]
+        rows = rows if rows and isinstance(rows[0], list) else [rows]
+        D = sp.Matrix([[ctx.expr(e, "reduced_dynamics.D") for e in row] for row in rows]).subs(data)
+    elif "pseudo_velocity" in spec:
+        pv = spec["pseudo_velocity"]
+        if not isinstance(pv, dict) or "direction" not in pv:
+            raise ExerciseError("reduced_dynamics.pseudo_velocity: expected {point: NAME, direction: [x, y, z]}")
+        pos = _point_position(m, pv.get("point", spec.get("point")), "reduced_dynamics.pseudo_velocity.point")
+        d = [ctx.expr(e, "reduced_dynamics.pseudo_velocity.direction").subs(data) for e in pv["direction"]]
+        d = sp.Matrix(d + [0] * (3 - len(d)))
+        D = m.tidy_matrix((d.T / sp.sqrt((d.T * d)[0])) * pos.jacobian(m.q))
+    if D is None:
+        return
+    if D.cols != n or D.rows + k != n:
+        raise ExerciseError(f"reduced_dynamics.D: needs {n - k} row(s) of {n} entries")
+    AD = A.col_join(D)
+    det = m.tidy(AD.det())
+    if TrigPoly.from_expr(sp.fraction(sp.together(det))[0]).is_zero():
+        raise ExerciseError("reduced_dynamics.D: [A; D] is singular")
+    EF = m.tidy_matrix(AD.adjugate() / AD.det())
+    E, F = EF[:, :k], EF[:, k:]
+    D_dot = m.tidy_matrix(_time_derivative(D, m.q, m.dq))
+    vn = ["v"] if n - k == 1 else [f"v{i + 1}" for i in range(n - k)]
+    v = sp.Matrix([symbol(x) for x in vn])
+    dv = sp.Matrix([symbol("d" + x) for x in vn])
+    W = E * A_dot + F * D_dot
+    M_v = m.tidy_matrix(F.T * m.M * F)
+    n_v = m.tidy_matrix(F.T * (m.n - m.M * W * m.dq))
+    B_v = m.tidy_matrix(F.T * S)
+    qdd = m.tidy_matrix(F * dv - W * m.dq)
+    u_track = m.tidy_matrix(m.M * qdd + m.n)
+    ctx.step("Pseudo-velocities", rf"v = D(q)\dot q = {m.L(D * m.dq)},\quad \begin{{pmatrix}}A\\ D\end{{pmatrix}}^{{-1}} = "
+             rf"\begin{{pmatrix}}E & F\end{{pmatrix}} = {m.L(EF)}",
+             f"det [A; D] = {det}: then q' = F(q) v and q'' = F v' - (E A' + F D') q'.")
+    ctx.step("Reduced dynamics", rf"F^T M F\,\dot v + F^T\left(n - M(E\dot A + F\dot D)\dot q\right) = F^T S u,\quad "
+             rf"F^T M F = {m.L(M_v)},\quad F^T S = {m.L(B_v)}",
+             "Premultiplying by F^T removes the constraint force (F^T A^T = 0): "
+             f"{n - k} equation(s) in the pseudo-velocities.", bodies=hb)
+    ctx.step("Input for a desired pseudo-acceleration", rf"u = M(q)\left(F\dot v - (E\dot A + F\dot D)\dot q\right) + n = {m.L(u_track)}",
+             "With every joint actuated this input realizes v' and needs no constraint force (lambda = 0).",
+             joints=hb)
+    ctx.answer("D", D)
+    ctx.answer("v", m.tidy_matrix(D * m.dq))
+    ctx.answer("D_dot", D_dot)
+    ctx.answer("E", E)
+    ctx.answer("F", F)
+    ctx.answer("M_v", M_v)
+    ctx.answer("n_v", n_v)
+    ctx.answer("B_v", B_v)
+    ctx.answer("qdd", qdd)
+    ctx.answer("u_track", u_track)
+    u_red = None
+    if B_v.rows == B_v.cols:
+        u_red = m.tidy_matrix(_inverse(B_v) * (M_v * dv + n_v))
+        ctx.step("Input of the reduced model", rf"u = (F^T S)^{{-1}}\left(F^T M F\,\dot v + n_v\right) = {m.L(u_red)}",
+                 "The input that gives the pseudo-acceleration v' along the constraint (the constraint "
+                 "force does the rest).", joints=[m.robot.bodies[i].name for i, a in enumerate(actuated) if a and i < len(m.robot.bodies)])
+        ctx.answer("u_reduced", u_red)
+    if spec.get("evaluate"):
+        _evaluate_reduced(ctx, m, spec["evaluate"], dict(A=A, D=D, F=F, M=m.M, g=m.dyn.g + m.dyn.spring,
+                                                         u_track=u_track, u_reduced=u_red, dv=dv, v=v))
+
+
+def _evaluate_reduced(ctx, m: Model, spec, terms):
+    """Answers at one state: the configuration (given, or placing a point by numeric inverse
+    kinematics), the desired pseudo-acceleration (given, or from a rest-to-rest timing law)."""
+    from scipy.optimize import least_squares
+    values = _given_values(ctx)
+    state = m.mapping(spec.get("state"), "reduced_dynamics.evaluate.state", keys="state")
+    steps = []
+    if "place" in spec:
+        pl = spec["place"]
+        pos = _point_position(m, pl.get("point", "ee"), "reduced_dynamics.evaluate.place.point")
+        target = sp.Matrix([ctx.expr(e, "reduced_dynamics.evaluate.place.at") for e in pl["at"]]).subs(values)
+        guess = m.mapping(pl.get("guess"), "reduced_dynamics.evaluate.place.guess")
+        x0 = [float(guess.get(qk, 0.0)) for qk in m.q]
+        rows = [i for i in range(len(target))]
+        defaults = {p.symbol: p.value for p in m.robot.parameters.values()}
+        f = sp.lambdify([list(m.q)], list((pos[:len(rows), 0] - target).subs(values).subs(defaults)), "numpy")
+        sol = least_squares(lambda x: np.asarray(f(x), dtype=float), x0, xtol=1e-14, ftol=1e-14, gtol=1e-14)
+        if np.max(np.abs(sol.fun)) > 1e-9:
+            raise ExerciseError("reduced_dynamics.evaluate.place: the point cannot reach the target")
+        for qk, val in zip(m.q, sol.x):
+            state[qk] = sp.Float(val)
+        steps.append(rf"q = {m.L(sp.Matrix([state[qk] for qk in m.q]).evalf(6))}")
+        ctx.answer("q_at", sp.Matrix([state[qk] for qk in m.q]))
+    for d in m.dq:
+        state.setdefault(d, 0)
+    missing = [qk for qk in m.q if qk not in state]
+    if missing:
+        raise ExerciseError(f"reduced_dynamics.evaluate: no value for {', '.join(s.name for s in missing)}")
+    dv_val = None
+    if "timing" in spec:
+        tm = spec["timing"]
+        prof = _PROFILES.get(tm.get("profile", "cubic"))
+        if prof is None:
+            raise ExerciseError(f"reduced_dynamics.evaluate.timing.profile: one of {', '.join(_PROFILES)}")
+        delta = ctx.expr(tm["length"], "timing.length").subs(values)
+        T = ctx.expr(tm["duration"], "timing.duration").subs(values)
+        t, s = symbol("t"), sp.Symbol("sigma")
+        sdd = (delta * prof(s)).diff(s, 2) / T ** 2
+        dv_val = sdd.subs(s, ctx.expr(tm.get("t", 0), "timing.t").subs(values) / T)
+        ctx.answer("Delta", delta)
+        ctx.answer("dv_at", dv_val)
+        steps.append(rf"\Delta = {m.L(sp.N(delta, 6))},\ \dot v_d = {m.L(sp.N(dv_val, 6))}")
+    elif "dv" in spec:
+        dv_val = ctx.expr(spec["dv"], "reduced_dynamics.evaluate.dv").subs(values)
+    sub = {**values, **state}
+
+    def at(x):
+        return m.tidy_matrix(sp.Matrix(x).subs(sub))
+    out = {"M_at": at(terms["M"]), "g_at": at(terms["g"]), "F_at": at(terms["F"])}
+    dvs = {d: dv_val for d in terms["dv"]} if dv_val is not None else {}
+    for key in ("u_track", "u_reduced"):
+        if terms[key] is not None and (dv_val is not None or not (terms[key].free_symbols & set(terms["dv"]))):
+            out[key + "_at"] = at(terms[key].subs(dvs))
+    for name, val in out.items():
+        ctx.answer(name, val)
+    steps += [rf"M = {m.L(out['M_at'])}", rf"g = {m.L(out['g_at'])}", rf"F = {m.L(out['F_at'])}"]
+    steps += [rf"u = {m.L(out[k])}" for k in ("u_track_at", "u_reduced_at") if k in out]
+    ctx.step("At the given state", r",\quad ".join(steps),
+             "Numbers of the exercise substituted (the configuration from inverse kinematics when a point is placed).")
+
+
+# ====================================================================== change of coordinates
+@task("coordinate_change")
+def coordinate_change_task(ctx, spec):
+    """Model in new coordinates p = J q (see the module docstring)."""
+    m = Model(ctx)
+    mp = spec.get("map")
+    if not isinstance(mp, dict) or len(mp) != len(m.coords):
+        raise ExerciseError(f"coordinate_change.map: give one new coordinate per old one ({len(m.coords)})")
+    p = sp.Matrix(m.new_symbols(list(mp), "coordinate_change.map"))
+    dp = sp.Matrix(m.new_symbols(["d" + str(s) for s in p], "coordinate_change.map"))
+    expr = sp.Matrix([ctx.expr(v, f"coordinate_change.map.{k}") for k, v in mp.items()])
+    J = expr.jacobian(m.q)
+    if J.free_symbols & (set(m.q) | set(m.dq)) or (expr - J * m.q).free_symbols & set(m.q):
+        raise ExerciseError("coordinate_change.map: only linear maps p = J q are supported")
+    Jinv = _inverse(J)
+    q_of_p = Jinv * (p - (expr - J * m.q))
+    sub = dict(zip(m.q, q_of_p))
+    sub.update(zip(m.dq, Jinv * dp))
+    M_p = m.tidy_matrix((Jinv.T * m.M * Jinv).subs(sub, simultaneous=True))
+    c_p = m.tidy_matrix((Jinv.T * m.dyn.c).subs(sub, simultaneous=True))
+    g_p = m.tidy_matrix((Jinv.T * (m.dyn.g + m.dyn.spring)).subs(sub, simultaneous=True))
+    tau = sp.Matrix([symbol(f"tau_p{i + 1}") for i in range(len(m.coords))])
+    tau_q = J.T * tau
+    ctx.step("New coordinates", rf"p = {m.L(expr)} = J q,\quad J = {m.L(J)},\quad q = {m.L(q_of_p)}",
+             "A constant, invertible linear map: p' = J q' and p'' = J q''.")
+    ctx.step("Generalized forces", rf"\tau_q = J^T \tau_p = {m.L(tau_q)}",
+             "Virtual work: tau_q^T dq = tau_p^T dp; each tau_p performs work on one p.")
+    ctx.step("Model in the new coordinates", rf"M_p(p) = J^{{-T}} M J^{{-1}} = {m.L(M_p)},\quad c_p = J^{{-T}} c = {m.L(c_p)}",
+             "Substitute q = J^-1 p and premultiply the equations by J^-T.")
+    ctx.answer("J", J)
+    ctx.answer("J_inv", Jinv)
+    ctx.answer("q_of_p", q_of_p)
+    ctx.answer("M_p", M_p)
+    ctx.answer("c_p", c_p)
+    ctx.answer("g_p", g_p)
+    ctx.answer("tau_q", tau_q)
+
+
+# ====================================================================== accelerations at a state
+@task("accelerations")
+def accelerations_task(ctx, spec):
+    """q'' = M^-1 (S u - n) at a state (see the module docstring)."""
+    m = Model(ctx)
+    state = m.mapping(spec.get("state"), "accelerations.state", keys="state")
+    raw = spec.get("inputs") or {}
+    if not isinstance(raw, dict):
+        raise ExerciseError("accelerations.inputs: expected a mapping coordinate -> input")
+    tau = sp.zeros(len(m.coords), 1)
+    for name, val in raw.items():
+        i = m.indices([name], "accelerations.inputs")[0]
+        if not m.robot.actuated[i]:
+            raise ExerciseError(f"accelerations.inputs: {name} is not actuated")
+        tau[i] = ctx.expr(val, f"accelerations.inputs.{name}")
+    M = m.M.subs(state)
+    rhs = (tau - m.n).subs(state)
+    ddq = m.tidy_matrix(_inverse(M) * rhs)
+    where = ", ".join(f"{k} = {v}" for k, v in state.items()) or "a generic state"
+    ctx.step("Accelerations", rf"\ddot q = M^{{-1}}(q)\left(\tau - n(q,\dot q)\right) = {m.L(ddq)}",
+             f"Forward dynamics at {where}.", bodies=[b.name for b in m.robot.bodies])
+    ctx.answer("ddq", ddq)
