@@ -265,9 +265,16 @@ class ControlPanel:
             + f'<table style="font-size:0.78em;color:#333;border-collapse:collapse" class="r2-gains">{rows}</table>')
         if reset_fields and not initial:
             self.gains.value = ""
+        # fill what a controller cannot do without (each stays editable)
         if name == "hybrid" and not self.surface.value.strip():
             point = "ee" if "ee" in self.robot.points else next(iter(self.robot.points), "ee")
             self.surface.value = f"{point} normal=0,1"
+        if name.startswith("pfl") and not self.passive.value.strip():
+            self.passive.value = self.robot.coordinates[-1]
+        if name in ("learning", "elastic_pd") and self.ref_kind.value not in (HOLD, "setpoint"):
+            self.ref_kind.value = "setpoint"                 # regulation schemes
+        if name == "learning":
+            self.duration.value = max(float(self.duration.value), 20.0)   # four iterations of 5 s
         self._kind_changed(keep=initial and bool(self.state.get("ref_params")))
 
     def _kind_changed(self, keep: bool = False) -> None:
