@@ -187,7 +187,7 @@ def arrow(start, vector, radius) -> trimesh.Trimesh:
 
 def com_marker(center, radius) -> Tuple[trimesh.Trimesh, trimesh.Trimesh]:
     """The textbook centre-of-mass symbol as a sphere: (dark octants, light octants)."""
-    sphere = trimesh.creation.icosphere(subdivisions=3, radius=radius)
+    sphere = trimesh.creation.icosphere(subdivisions=2, radius=radius)
     signs = np.prod(np.sign(sphere.triangles_center + 1e-9), axis=1)
     dark = sphere.submesh([np.nonzero(signs > 0)[0]], append=True)
     light = sphere.submesh([np.nonzero(signs <= 0)[0]], append=True)

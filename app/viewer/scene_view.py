@@ -49,6 +49,7 @@ class SceneView:
         self.highlighted: Dict[str, List[str]] = {"bodies": [], "joints": []}
         self._frame_pending = False
         self._camera_hooked = False
+        self._gravity = None
         # flat textbook look, and cheap frames in software WebGL: no shadows, no environment map
         self.scene.configure_default_lights(enabled=True, cast_shadow=False)
         self.scene.configure_environment_map(hdri=None)
@@ -93,59 +94,67 @@ class SceneView:
         self._axes.clear()
         self._labels.clear()
         self._env.clear()
+        self._gravity = None
         for name in list(self._ghosts):
             self.remove_ghost(name)
 
     def _draw_environment(self, drawing: RobotDrawing) -> None:
+        """Graph paper: lines in the plane of motion behind a planar robot, or on the ground under
+        a spatial one. Lines only: a filled plane costs most of the frame time in software WebGL."""
         framing = drawing.framing()
         r = drawing.radius
         size = 7.0 * framing.radius
-        cell = _nice_cell(size / 12)
+        cell = _nice_cell(size / 14)
         if drawing.robot.is_planar:
-            # the plane of motion, behind the robot, as graph paper
-            grid = self.scene.add_grid(
-                f"{ENV_ROOT}/plane", width=size, height=size, plane="xy", cell_size=cell,
-                section_size=cell * 5, cell_color=(215, 222, 232), section_color=(170, 182, 200),
-                plane_color=(248, 250, 253), plane_opacity=1.0, shadow_opacity=0.0,
-                position=(float(framing.center[0]), float(framing.center[1]), -3.2 * r),
-                visible=self.options["plane"])
+            R = np.eye(3)
+            origin = np.array([framing.center[0], framing.center[1], -3.2 * r])
+            cells, sections = (212, 219, 230), (172, 184, 204)
         else:
-            up = drawing.up
-            ground = -3.5 * r * up
-            wxyz = quaternion_wxyz(align_z(up))
-            grid = self.scene.add_grid(
-                f"{ENV_ROOT}/plane", width=size, height=size, plane="xy", cell_size=cell,
-                section_size=cell * 5, cell_color=(210, 214, 220), section_color=(160, 166, 176),
-                plane_color=(245, 246, 248), plane_opacity=0.6, shadow_opacity=0.0,
-                position=tuple(ground), wxyz=tuple(wxyz), visible=self.options["plane"])
-        self._env.append(grid)
+            R = align_z(drawing.up)
+            origin = -3.5 * r * drawing.up
+            cells, sections = (212, 215, 221), (165, 171, 181)
+        half = size / 2
+        ticks = np.arange(-np.floor(half / cell), np.floor(half / cell) + 1) * cell
+        segments, colors = [], []
+        for t in ticks:
+            major = abs(t / (5 * cell) - round(t / (5 * cell))) < 1e-6
+            for seg in (((t, -half, 0.0), (t, half, 0.0)), ((-half, t, 0.0), (half, t, 0.0))):
+                segments.append(seg)
+                colors.append([sections if major else cells] * 2)
+        lines = self.scene.add_line_segments(f"{ENV_ROOT}/plane", np.array(segments, np.float32),
+                                             np.array(colors, np.uint8), thickness=1.0, thickness_units="screen",
+                                             position=tuple(origin), wxyz=tuple(quaternion_wxyz(R)),
+                                             visible=self.options["plane"])
+        self._env.append(lines)
         g = drawing.gravity
         if np.linalg.norm(g) > 1e-12:
             self._env.extend(self._gravity_arrow(drawing, framing))
 
     def _gravity_arrow(self, drawing: RobotDrawing, framing: Framing):
-        up = drawing.up
+        """The gravity arrow (and its label) in a node of its own, placed by ``frame_camera``."""
         length = 0.22 * framing.radius
-        if drawing.robot.is_planar:      # on the left: the side panel covers the right
-            side = np.cross([0.0, 0.0, 1.0], up)
-        else:
-            side = np.cross(up, [1.0, 0.0, 0.0]) if abs(up[0]) < 0.9 else np.cross(up, [0.0, 1.0, 0.0])
-        if np.linalg.norm(side) < 1e-9:     # gravity normal to a horizontal plane: point into it
-            start = framing.center + 0.8 * framing.radius * np.array([1.0, 1.0, 0.0]) / np.sqrt(2)
-        else:
-            side = side / np.linalg.norm(side)
-            start = framing.center + 0.8 * framing.radius * side + 0.55 * framing.radius * up
-            if drawing.robot.is_planar:
-                start[2] = 0.0
-        mesh = arrow(start, -up * length, 0.45 * drawing.radius)
-        handle = self.scene.add_mesh_simple(f"{ENV_ROOT}/gravity", mesh.vertices.astype(np.float32),
-                                            mesh.faces.astype(np.uint32), color=(40, 60, 110),
-                                            cast_shadow=False, receive_shadow=False)
-        label = self.scene.add_label(f"{ENV_ROOT}/gravity_label", "g",
-                                     position=tuple(start - up * length * 0.5 + 0.12 * framing.radius * side
-                                                    if np.linalg.norm(side) > 1e-9 else start),
-                                     anchor="center-left", font_screen_scale=1.3)
-        return [handle, label]
+        mesh = arrow(np.zeros(3), -drawing.up * length, 0.45 * drawing.radius)
+        node = self.scene.add_frame(f"{ENV_ROOT}/gravity", show_axes=False)
+        self.scene.add_mesh_simple(f"{ENV_ROOT}/gravity/arrow", mesh.vertices.astype(np.float32),
+                                   mesh.faces.astype(np.uint32), color=(40, 60, 110),
+                                   cast_shadow=False, receive_shadow=False)
+        self.scene.add_label(f"{ENV_ROOT}/gravity/label", "g", position=(0.0, 0.0, 0.0),
+                             anchor="bottom-center", font_screen_scale=1.3)
+        self._gravity = node
+        return [node]
+
+    def _place_gravity(self, framing: Framing, right: np.ndarray, visible_half_width: float) -> None:
+        """Put the gravity arrow in the upper left of the view."""
+        if self._gravity is None:
+            return
+        up = self.drawing.up
+        screen_up = up - np.dot(up, right) * right
+        norm = np.linalg.norm(screen_up)
+        screen_up = screen_up / norm if norm > 1e-9 else np.cross(right, [0.0, 0.0, -1.0])
+        position = framing.center - 0.8 * visible_half_width * right + 0.55 * framing.radius * screen_up
+        if self.drawing.robot.is_planar:
+            position[2] = 0.0
+        self._gravity.position = tuple(position)
 
     def set_pose(self, q) -> None:
         """Move the drawn robot to coordinates q (a few pose updates, no mesh traffic)."""
@@ -261,7 +270,7 @@ class SceneView:
         pts = np.asarray(points, dtype=np.float32).reshape(-1, 3)
         segments = np.stack([pts[:-1], pts[1:]], axis=1)
         handle = self.scene.add_line_segments(f"{OVERLAY_ROOT}/{name}", segments, colors=color,
-                                              line_width=width)
+                                              thickness=width, thickness_units="screen")
         return self._put(name, handle)
 
     def add_trajectory(self, name: str, points, color: Color = (31, 119, 180), width: float = 2.5):
@@ -316,13 +325,18 @@ class SceneView:
             width = camera.image_width if camera.image_height > 0 else 1280
             aspect = width / camera.image_height if camera.image_height > 0 else 16 / 9
             occluded = SIDE_PANEL_PX / width if width > 2.2 * SIDE_PANEL_PX else 0.0
-            position, look_at, up = camera_pose(self.drawing.framing(self.q), fov=fov, aspect=aspect,
-                                                occluded_right=occluded)
+            framing = self.drawing.framing(self.q)
+            position, look_at, up = camera_pose(framing, fov=fov, aspect=aspect, occluded_right=occluded)
+            forward = (look_at - position) / np.linalg.norm(look_at - position)
+            right = np.cross(forward, up)
+            right /= np.linalg.norm(right)
+            half_width = np.linalg.norm(look_at - position) * np.tan(fov / 2) * aspect * (1 - occluded)
             with self.client.atomic():
                 camera.fov = float(fov)
                 camera.up_direction = tuple(up)
                 camera.position = tuple(position)
                 camera.look_at = tuple(look_at)
+                self._place_gravity(framing, right, half_width)
 
     def _first_camera_report(self, _camera) -> None:
         if self._frame_pending:
