@@ -401,8 +401,8 @@ def catch_scene(release_position, release_velocity, g: float = 9.81, base_x: Opt
     """A thrown ball (release state in the world frame, y from the ground, e.g. the throwing arm's
     ``Release.position``/``velocity``) caught by the catching arm standing at ``base_x`` on the
     ground (default: 0.5 m beyond the landing point). Returns plain data for the viewer: the ball
-    path, the catch point and time (world frame, time from the release), the arm base, joint
-    angles over time and the arm's reachable-region boundary (world frame)."""
+    path, the catch point and time (world frame, time from the release), the release state, the
+    arm base, joint angles over time and the arm's reachable-region boundary (world frame)."""
     arm = arm or CatchingArm()
     world = BallFlight.from_release(release_position, release_velocity, g)
     land = world.landing_time()
@@ -417,6 +417,9 @@ def catch_scene(release_position, release_velocity, g: float = 9.81, base_x: Opt
     path_t = np.linspace(0.0, plan.time, frames)
     return {
         "base": [base_x, 0.0],
+        "release": list(np.asarray(release_position, float)),
+        "velocity": list(np.asarray(release_velocity, float)),
+        "g": float(abs(g)),
         "ball_path": world.position(np.linspace(0.0, land, 200)).T.tolist(),
         "ball_until_catch": world.position(path_t).T.tolist(),
         "catch_time": plan.time,
