@@ -7,7 +7,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app.core.control import make_controller
 from app.core.numeric import NumericModel, random_state
 from app.core.robot import list_robot_names, load_robot
 from app.core.sim import ModelTerms, PointForce, SimulationError, Surface, TaskPoint, simulate

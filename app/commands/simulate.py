@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import json
 import sys
-from typing import Dict, List, Optional
 
 import numpy as np
 
@@ -138,7 +137,7 @@ def run(args) -> int:
         fmt = lambda xs: ", ".join(f"{n}={x:.3g}" for n, x in zip(res.reference_names, xs))
         print(f"  error at t = {res.t[-1]:.3f} s: {fmt(info['final_error'])}")
         print(f"  max |error| over the last 10%: {fmt(info['max_abs_error_last_10pct'])}")
-        print(f"  max |tau|: " + ", ".join(f"{c}={x:.3g}" for c, x in zip(res.coordinates, info["max_abs_tau"])))
+        print("  max |tau|: " + ", ".join(f"{c}={x:.3g}" for c, x in zip(res.coordinates, info["max_abs_tau"])))
         print(f"  {len(res.t)} samples at {res.rate:g} Hz, {res.real_time_factor:.0f}x real time"
               + (f", written to {args.out}" if args.out else ""))
     if not res.completed:

@@ -33,7 +33,6 @@ import numpy as np
 import sympy as sp
 
 from .control import ControlSetup, ControlStop, Controller, MomentumObserver, make_controller
-from .dynamics import derive
 from .errors import UserError
 from .kinematics import Kinematics
 from .numeric import NumericModel, PinocchioTwin
@@ -125,7 +124,7 @@ class ModelTerms:
 
     # -------------------------------------------------------------- hot-path closures
     def _bind_symbolic(self):
-        num, spring, friction = self.num, self.spring, self.friction
+        num, spring = self.num, self.spring
         ev = self.extra_viscous
 
         def bias(q, dq):
@@ -785,9 +784,8 @@ def simulate(robot: Union[RobotModel, str], controller: Union[Controller, str], 
                     if _first_bad(Q[j], DQ[j], lo, hi, stop_at_limits, max_speed, names) is not None:
                         first = j
                         break
-                if first is None:
+                if first is None:          # the state just reached (sample k + 1)
                     first, qs, dqs = k + 1, q, dq
-                    Q[first], DQ[first] = q, dq
                 else:
                     qs, dqs = Q[first], DQ[first]
                 what = _first_bad(qs, dqs, lo, hi, stop_at_limits, max_speed, names)

@@ -17,7 +17,7 @@ argument takes one value per coordinate, or a single value for all.
 """
 from __future__ import annotations
 
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
