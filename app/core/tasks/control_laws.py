@@ -14,8 +14,9 @@ Task kinds (options -> answers):
   angles), ``terms`` (which parts of the model: any of inertia, coriolis, gravity, spring,
   friction; default all), ``input_gain`` (a parameter or symbol k with tau = k u: the model is
   divided by k), ``suffix`` (appended to the answer names). Answers: ``Y``, ``Y_r`` (Slotine-Li
-  regressor, q'' -> q''_r and C q' -> C q'_r), ``a``, ``regressor_count``, ``tau_known`` (terms
-  that depend on no unknown parameter, if any).
+  regressor, q'' -> q''_r and C q' -> C q'_r), ``a``, ``regressor_count``, ``minimal_count`` (the
+  smallest possible number for these terms), ``tau_known`` (terms that depend on no unknown
+  parameter, if any).
 - ``adaptive_law``: u = Y_r a_hat (+ the known part) + K_P e + K_D e', a_hat' = Gamma Y_r^T (q'_r - q').
   Options: those of ``parametrization`` and ``estimate`` (1-based indices of the coefficients that
   are adapted; default all), ``lambda`` (``"KP/KD"``, the default, or ``"free"``). Answers:
@@ -45,6 +46,7 @@ from typing import Dict, List, Optional, Sequence
 import numpy as np
 import sympy as sp
 
+from ..dynamics import _complexity, _independent_columns
 from ..exercise import ExerciseError
 from ..expressions import symbol
 from ..robot import KNOWN_KINDS
@@ -85,6 +87,7 @@ class LinearParametrization:
     known_part: sp.Matrix
     known_part_r: sp.Matrix
     known: List[str]
+    minimal: int            # the smallest number of coefficients for these terms
 
 
 def _monomials(expr, gens) -> Dict[tuple, sp.Expr]:
@@ -110,9 +113,7 @@ def parametrize(m: Model, coefficients: Optional[Sequence] = None, known: Option
     unknown_names = [k for k in known if k not in robot.parameters]
     if unknown_names:
         raise ExerciseError(f"parametrization.known: {unknown_names} are not parameters of {robot.name}")
-    if coefficients is None:
-        coefficients = [str(e) for e in m.ctx.dynamics(known=list(known)).parametrization.a]
-    a = [m.ctx.expr(c, "parametrization.coefficients") for c in coefficients]
+    a = None if coefficients is None else [m.ctx.expr(c, "parametrization.coefficients") for c in coefficients]
     dyn = m.dyn
     dqr, ddqr = (sp.Matrix(v) for v in robot.reference_symbols())
     fric_r = dyn.friction.subs(dict(zip(m.dq, dqr)), simultaneous=True)
@@ -132,19 +133,13 @@ def parametrize(m: Model, coefficients: Optional[Sequence] = None, known: Option
     unknown = [p.symbol for p in robot.parameters.values() if p.name not in known]
     if gain is not None:
         unknown += sorted(gain.free_symbols - params - set(unknown), key=lambda s: s.name)
-    stray = set().union(*[e.free_symbols for e in a]) - params - set(unknown)
-    if stray:
-        raise ExerciseError(f"parametrization.coefficients: unknown name(s) {sorted(s.name for s in stray)}")
-    gens = [s for s in unknown if any(s in e.free_symbols for e in list(a) + list(target))]
+    if a is not None:
+        stray = set().union(*[e.free_symbols for e in a]) - params - set(unknown)
+        if stray:
+            raise ExerciseError(f"parametrization.coefficients: unknown name(s) {sorted(s.name for s in stray)}")
+    gens = [s for s in unknown if any(s in e.free_symbols for e in list(a or []) + list(target))]
     if gain is not None:
         gens += [1 / s for s in gain.free_symbols if s in unknown]
-    gens_set = set(gens)
-
-    R_rows = [_monomials(e, gens) for e in a]
-    for k, row in enumerate(R_rows):
-        for mono, c in row.items():
-            if c.free_symbols & (set(unknown) | set(m.q) | set(m.dq)):
-                raise ExerciseError(f"parametrization: coefficient {a[k]} is not a combination of unknown-parameter products")
 
     def split(rows: sp.Matrix):
         cols: Dict[tuple, List[TrigPoly]] = {}
@@ -160,6 +155,17 @@ def parametrize(m: Model, coefficients: Optional[Sequence] = None, known: Option
     one = tuple(0 for _ in gens)
     known_part = [tp.expand() for tp in T.pop(one, [TrigPoly() for _ in range(n)])]
     known_part_r = [tp.expand() for tp in T_r.pop(one, [TrigPoly() for _ in range(n)])]
+    # the minimal set, as the engine's own regressor chooses it
+    cols = [(sp.Mul(*[g ** e for g, e in zip(gens, mono)]), vec) for mono, vec in T.items()]
+    cols.sort(key=lambda col: _complexity(col[1]))
+    _basis, coeffs = _independent_columns(cols, None, set(known)) if cols else ([], [])
+    if a is None:
+        a = [sp.factor_terms(sp.expand(c)) for c in coeffs]
+    R_rows = [_monomials(e, gens) for e in a]
+    for k, row in enumerate(R_rows):
+        for mono, c in row.items():
+            if c.free_symbols & (set(unknown) | set(m.q) | set(m.dq)):
+                raise ExerciseError(f"parametrization: coefficient {a[k]} is not a combination of unknown-parameter products")
     monos = list(dict.fromkeys([mo for row in R_rows for mo in row] + list(T) + list(T_r)))
     p = len(a)
     R = sp.Matrix(p, len(monos), lambda k, j: R_rows[k].get(monos[j], 0))
@@ -207,7 +213,7 @@ def parametrize(m: Model, coefficients: Optional[Sequence] = None, known: Option
     Y, Y_r = solve(T), solve(T_r)
     kp = sp.Matrix([m.tidy(tp.to_expr()) for tp in known_part])
     kpr = sp.Matrix([m.tidy(tp.to_expr()) for tp in known_part_r])
-    return LinearParametrization(a, Y, Y_r, kp, kpr, list(known))
+    return LinearParametrization(a, Y, Y_r, kp, kpr, list(known), len(coeffs))
 
 
 def _options(spec):
@@ -228,7 +234,9 @@ def parametrization_task(ctx, spec):
         lhs = rf"\left({lhs}\right) / {to_latex(ctx.expr(spec['input_gain']))}"
     ctx.step("Dynamic coefficients", rf"a{sfx} = {m.L(a)}",
              f"{len(par.a)} coefficients (known: {', '.join(par.known) or 'none'}); each is a product "
-             "(or a sum of products) of unknown parameters.")
+             "(or a sum of products) of unknown parameters; "
+             + ("this is the minimal number." if len(par.a) == par.minimal else
+                f"the minimal number is {par.minimal}."))
     known_txt = ""
     if any(e != 0 for e in par.known_part):
         known_txt = rf" + {m.L(par.known_part)}"
@@ -240,6 +248,7 @@ def parametrization_task(ctx, spec):
     ctx.answer(f"Y{sfx}_r", par.Y_r)
     ctx.answer(f"a{sfx}", a)
     ctx.answer(f"regressor_count{sfx}", len(par.a))
+    ctx.answer(f"minimal_count{sfx}", par.minimal)
     if any(e != 0 for e in par.known_part):
         ctx.answer(f"tau_known{sfx}", par.known_part)
 

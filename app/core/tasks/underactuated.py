@@ -44,7 +44,10 @@ Task kinds (options -> answers):
   ``Delta``, ``dv_at``. With ``numeric_data: true`` the exercise's numbers that are not robot
   parameters (e.g. the points of a segment) are substituted after A(q), keeping the rest readable.
 - ``coordinate_change``: linear change of coordinates p = J q. Options: ``map`` (new coordinate ->
-  expression of q). Answers: ``J``, ``J_inv``, ``q_of_p``, ``M_p``, ``c_p``, ``g_p``, ``tau_p``.
+  expression of q), or ``torque_map`` (the generalized forces as expressions of the actuator
+  torques tau1..taun: then p is the set of coordinates on which the torques work component-wise)
+  with ``new`` (names, default p1..pn). Answers: ``J``, ``J_inv``, ``q_of_p``, ``M_p``, ``c_p``,
+  ``g_p``, ``tau_q`` (J^T tau).
 - ``accelerations``: q'' = M^-1 (S u - n) at a state. Options: ``state`` (coordinate or velocity
   -> value), ``inputs`` (actuated coordinate -> value or expression). Answers: ``ddq``.
 
@@ -616,9 +619,25 @@ def _evaluate_reduced(ctx, m: Model, spec, terms):
 def coordinate_change_task(ctx, spec):
     """Model in new coordinates p = J q (see the module docstring)."""
     m = Model(ctx)
-    mp = spec.get("map")
-    if not isinstance(mp, dict) or len(mp) != len(m.coords):
-        raise ExerciseError(f"coordinate_change.map: give one new coordinate per old one ({len(m.coords)})")
+    n = len(m.coords)
+    tau = sp.Matrix([symbol(f"tau{i + 1}") for i in range(n)])
+    if "torque_map" in spec:
+        tm = spec["torque_map"]
+        if not isinstance(tm, list) or len(tm) != n:
+            raise ExerciseError(f"coordinate_change.torque_map: give the {n} generalized forces as expressions of tau1..tau{n}")
+        tau_q_given = sp.Matrix([ctx.expr(e, "coordinate_change.torque_map") for e in tm])
+        Bt = tau_q_given.jacobian(tau)
+        if tau_q_given - Bt * tau != sp.zeros(n, 1) or Bt.free_symbols:
+            raise ExerciseError("coordinate_change.torque_map: expected a constant linear map of the torques")
+        names = spec.get("new") or [f"p{i + 1}" for i in range(n)]
+        mp = dict(zip(names, list(Bt.T * m.q)))
+        ctx.step("Coordinates conjugate to the torques", rf"\tau_q = {m.L(tau_q_given)} = J^T \tau \Rightarrow J = {m.L(Bt.T)}",
+                 "The torques do work component-wise on p = J q, since tau_q^T q' = tau^T J q' = tau^T p'.")
+    else:
+        mp = spec.get("map")
+        tau = sp.Matrix([symbol(f"tau_p{i + 1}") for i in range(n)])
+    if not isinstance(mp, dict) or len(mp) != n:
+        raise ExerciseError(f"coordinate_change.map: give one new coordinate per old one ({n})")
     p = sp.Matrix(m.new_symbols(list(mp), "coordinate_change.map"))
     dp = sp.Matrix(m.new_symbols(["d" + str(s) for s in p], "coordinate_change.map"))
     expr = sp.Matrix([ctx.expr(v, f"coordinate_change.map.{k}") for k, v in mp.items()])
@@ -632,7 +651,6 @@ def coordinate_change_task(ctx, spec):
     M_p = m.tidy_matrix((Jinv.T * m.M * Jinv).subs(sub, simultaneous=True))
     c_p = m.tidy_matrix((Jinv.T * m.dyn.c).subs(sub, simultaneous=True))
     g_p = m.tidy_matrix((Jinv.T * (m.dyn.g + m.dyn.spring)).subs(sub, simultaneous=True))
-    tau = sp.Matrix([symbol(f"tau_p{i + 1}") for i in range(len(m.coords))])
     tau_q = J.T * tau
     ctx.step("New coordinates", rf"p = {m.L(expr)} = J q,\quad J = {m.L(J)},\quad q = {m.L(q_of_p)}",
              "A constant, invertible linear map: p' = J q' and p'' = J q''.")
