@@ -71,7 +71,14 @@ def _scalar_same(a, b, tol=1e-9) -> bool:
 
 
 def same(expected, computed, tol: float = 1e-9, definitions=None) -> bool:
-    """True when the computed answer equals the expected one (symbolic or numeric)."""
+    """True when the computed answer equals the expected one (symbolic, numeric or yes/no).
+
+    >>> same(True, True), same(False, 0.0)
+    (True, False)
+    """
+    flags = (bool, np.bool_)
+    if isinstance(expected, flags) or isinstance(computed, flags):
+        return isinstance(expected, flags) and isinstance(computed, flags) and bool(expected) == bool(computed)
     e = as_sympy(expected, definitions)
     c = computed
     if isinstance(c, np.ndarray):
