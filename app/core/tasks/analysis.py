@@ -70,7 +70,7 @@ import sympy as sp
 
 from ..dynamics import natural_angles, pretty
 from ..exercise import ExerciseError
-from ..expressions import parse_number, symbol
+from ..expressions import ExpressionError, parse_number, symbol
 from ..kinematics import Kinematics
 from ..steps import to_latex
 from ..trig import TrigPoly
@@ -112,7 +112,7 @@ class _Analysis:
     def number(self, value, option: str) -> float:
         try:
             return parse_number(value, self.where(option))
-        except Exception as exc:   # ExpressionError is a UserError: keep its message
+        except ExpressionError as exc:
             raise ExerciseError(str(exc)) from None
 
     def mapping(self, raw, option: str) -> Dict[sp.Symbol, sp.Expr]:
