@@ -108,3 +108,16 @@ def test_catch_scene_of_a_release(arm):
     hand = arm.forward(q_end) + np.array(scene["base"])
     assert np.allclose(hand, scene["catch_point"], atol=1e-9)
     assert arm.within_limits(q_end)
+
+
+def test_a_throw_of_the_throwing_arm_is_caught(arm):
+    """The thesis's throw one, solved by the VHC engine, flies into the catching arm's reach."""
+    from app.core.catching import catch_thesis_throw
+    scene = catch_thesis_throw("throw1", arm=arm)
+    ball = BallFlight.from_release(scene["release"], scene["velocity"], scene["g"])
+    tc = scene["catch_time"]
+    assert 0 < tc < ball.landing_time()
+    assert np.allclose(ball.position(tc), scene["catch_point"], atol=1e-9)
+    hand = arm.forward(np.array(scene["q"][-1])) + np.array(scene["base"])
+    assert np.allclose(hand, scene["catch_point"], atol=1e-9)
+    assert scene["base"][0] > scene["release"][0]
