@@ -23,11 +23,11 @@ from app.core.sim import ModelTerms, simulate
 from app.core.trajectories import parse_reference
 
 ROBOTS = ["planar_2r", "planar_3r", "throwing_arm"]
-DURATION = 2.0
+DURATION = 1.0
 RATE = 1000.0
 REFERENCE = "sine amplitude=0.3 f=0.5"
 KP, KD = 100.0, 20.0
-REPEATS = 5
+REPEATS = 12
 
 
 def plain_loop(robot, q0):

@@ -82,6 +82,7 @@ class ModelTerms:
             raise SimulationError(f"{robot.name}: the pinocchio backend needs joint variables equal to the "
                                   "coordinates (in order); use the symbolic backend")
         self.backend = "pinocchio" if (backend != "symbolic" and identity) else "symbolic"
+        self._spring_diagonal = self._friction_diagonal = None   # diagonal linear maps, when they are
         self.spring = self._spring_function(spring_lin)
         self.friction = self._friction_function(friction_lin)
         if self.backend == "pinocchio":
@@ -101,6 +102,8 @@ class ModelTerms:
             return self.num.spring
         K, k0 = lin
         Kd = _diagonal(K)
+        if Kd is not None and not np.any(k0):
+            self._spring_diagonal = Kd
         if np.any(k0):
             return (lambda q: Kd * q + k0) if Kd is not None else (lambda q: K @ q + k0)
         return (lambda q: Kd * q) if Kd is not None else (lambda q: K @ q)
@@ -120,6 +123,7 @@ class ModelTerms:
         if not self.has_friction:
             return lambda dq: np.zeros(n)
         Fd = _diagonal(Fv)
+        self._friction_diagonal = Fd
         return (lambda dq: Fd * dq) if Fd is not None else (lambda dq: Fv @ dq)
 
     # -------------------------------------------------------------- hot-path closures
@@ -151,7 +155,16 @@ class ModelTerms:
             self.gravity = lambda q: grav(model, data, q) + spring(q)
         else:
             self.gravity = lambda q: grav(model, data, q)
-        if self.has_spring and self.has_friction:
+        Kd, Fd = self._spring_diagonal, self._friction_diagonal
+        if self.has_spring and not self.has_friction and Kd is not None:
+            # the usual elastic joint: k(q) = K q with K diagonal, inlined in the hot path
+            self.bias = lambda q, dq: nle(model, data, q, dq) + Kd * q
+            self.inverse_dynamics = lambda q, dq, a: rnea(model, data, q, dq, a) + Kd * q
+            self.forward_dynamics = lambda q, dq, tau: aba(model, data, q, dq, tau - Kd * q)
+            return
+        if self.has_spring and self.has_friction and Kd is not None and Fd is not None:
+            extra = lambda q, dq: Kd * q + Fd * dq
+        elif self.has_spring and self.has_friction:
             extra = lambda q, dq: spring(q) + friction(dq)
         elif self.has_spring:
             extra = lambda q, dq: spring(q)
@@ -705,7 +718,9 @@ def simulate(robot: Union[RobotModel, str], controller: Union[Controller, str], 
     names = robot.coordinates
     check_every = 10
     progress_every = max(1, N // 100)
-    q, dq = q0.copy(), dq0.copy()
+    x = np.concatenate((q0, dq0))
+    q, dq = x[:n], x[n:]
+    cat = np.concatenate
     tau = np.zeros(n)
     h2, h6 = h / 2, h / 6
     message = ""
@@ -747,21 +762,22 @@ def simulate(robot: Union[RobotModel, str], controller: Union[Controller, str], 
             DDQ[k] = a1
             if k == N:
                 break
-            for s in range(substeps):
+            for s in range(substeps):      # RK4 on x = (q, q'), k = (q', q'')
                 ts = tk + s * h
                 if s:
                     a1 = accel(q, dq, tau, ts) if has_contacts else accel(q, dq, tau)
-                q2 = q + h2 * dq
-                v2 = dq + h2 * a1
-                a2 = accel(q2, v2, tau, ts + h2) if has_contacts else accel(q2, v2, tau)
-                q3 = q + h2 * v2
-                v3 = dq + h2 * a2
-                a3 = accel(q3, v3, tau, ts + h2) if has_contacts else accel(q3, v3, tau)
-                q4 = q + h * v3
-                v4 = dq + h * a3
-                a4 = accel(q4, v4, tau, ts + h) if has_contacts else accel(q4, v4, tau)
-                q = q + h6 * (dq + 2.0 * (v2 + v3) + v4)
-                dq = dq + h6 * (a1 + 2.0 * (a2 + a3) + a4)
+                k1 = cat((dq, a1))
+                x2 = x + h2 * k1
+                v = x2[n:]
+                k2 = cat((v, accel(x2[:n], v, tau, ts + h2) if has_contacts else accel(x2[:n], v, tau)))
+                x3 = x + h2 * k2
+                v = x3[n:]
+                k3 = cat((v, accel(x3[:n], v, tau, ts + h2) if has_contacts else accel(x3[:n], v, tau)))
+                x4 = x + h * k3
+                v = x4[n:]
+                k4 = cat((v, accel(x4[:n], v, tau, ts + h) if has_contacts else accel(x4[:n], v, tau)))
+                x = x + h6 * (k1 + 2.0 * (k2 + k3) + k4)
+                q, dq = x[:n], x[n:]
         except np.linalg.LinAlgError as exc:
             message = f"stopped at t = {tk:.3f} s: a singular matrix ({exc}) - a singular configuration?"
             last = k - 1
