@@ -19,7 +19,7 @@ def run(*args, check=True):
 
 
 # A robot that is not shipped: a planar PR in a horizontal plane whose prismatic axis is tilted by a
-# constant angle beta from the x-axis, followed by a revolute joint; CoM of link 2 at distance d2.
+# constant angle tilt from the x-axis, followed by a revolute joint; CoM of link 2 at distance d2.
 NEW_ROBOT = """
 name: tilted_pr
 title: Tilted PR (test)
@@ -30,11 +30,11 @@ parameters:
   m2: {value: 2, kind: mass}
   d2: {value: 0.3, kind: com}
   I2: {value: 0.05, kind: inertia}
-  beta: {value: 0.5, kind: angle}
+  tilt: {value: 0.5, kind: angle}
 gravity: [0, 0, 0]
 bodies:
   - name: slider
-    joint: {type: prismatic, axis: [1, 0, 0], q: q1, origin: {rpy: [0, 0, beta]}}
+    joint: {type: prismatic, axis: [1, 0, 0], q: q1, origin: {rpy: [0, 0, tilt]}}
     mass: m1
   - name: arm
     joint: {type: revolute, axis: z, q: q2}
@@ -52,7 +52,7 @@ def test_derive_json_of_a_new_robot_file(tmp_path):
     for key in ("q", "params", "M", "C", "g", "Y", "a"):
         assert key in out
     q1, q2, dq1, dq2 = sp.symbols("q1 q2 dq1 dq2")
-    m1, m2, d2, I2, beta = sp.symbols("m1 m2 d2 I2 beta")
+    m1, m2, d2, I2, tilt = sp.symbols("m1 m2 d2 I2 tilt")
     M = sp.Matrix([[sp.sympify(e) for e in row] for row in out["M"]])
     # By hand: p_c2 = q1 (cos b, sin b) + d2 (cos(b + q2), sin(b + q2)).
     expected_M = sp.Matrix([[m1 + m2, -m2 * d2 * sp.sin(q2)], [-m2 * d2 * sp.sin(q2), I2 + m2 * d2 ** 2]])
@@ -103,3 +103,12 @@ def test_eval_attempt_is_refused(tmp_path):
 def test_bad_known_parameter_exits_2():
     proc = run("derive", "planar_2r", "--known", "l1,zz", check=False)
     assert proc.returncode == 2 and "zz" in proc.stderr
+
+
+def test_names_sympify_cannot_read_back_are_refused(tmp_path):
+    bad = NEW_ROBOT.replace("tilt", "gamma")
+    path = tmp_path / "gamma.yaml"
+    path.write_text(bad)
+    proc = run("derive", str(path), "--json", check=False)
+    assert proc.returncode == 2
+    assert "parameters.gamma: 'gamma' is a sympy/Python name" in proc.stderr

@@ -32,6 +32,16 @@ KNOWN_KINDS = ("length", "gravity", "angle")
 GROUPS = ("exam", "throwing", "catching", "other")
 
 
+def _reserved_names() -> frozenset:
+    """Names that ``sympy.sympify`` would not read back as plain symbols (functions and constants of
+    sympy such as gamma, beta, E, I, S, N, and Python's builtins such as max)."""
+    import builtins
+    return frozenset(sp.__all__) | frozenset(dir(builtins))
+
+
+RESERVED_NAMES = _reserved_names()
+
+
 class RobotFileError(UserError):
     """A robot file is malformed; the message names the file, the field and the problem."""
 
@@ -412,6 +422,10 @@ def parse_robot(data, source: str = "<robot>", content_hash: str = "") -> RobotM
         raise ctx.fail("coordinates", f"expected a non-empty list of identifiers, got {coords!r}")
     if len(set(coords)) != len(coords):
         raise ctx.fail("coordinates", "duplicate coordinate names")
+    for c in coords:
+        if c in RESERVED_NAMES:
+            raise ctx.fail("coordinates", f"'{c}' is a sympy/Python name and would not read back as a symbol; "
+                           f"choose another name (e.g. {c}_)")
 
     # ---- parameters
     params: Dict[str, Parameter] = {}
@@ -425,6 +439,9 @@ def parse_robot(data, source: str = "<robot>", content_hash: str = "") -> RobotM
             raise ctx.fail(where, "a parameter name must be an identifier")
         if pname in reserved:
             raise ctx.fail(where, "name clashes with a coordinate, its derivatives or a constant")
+        if pname in RESERVED_NAMES:
+            raise ctx.fail(where, f"'{pname}' is a sympy/Python name (sympify would not read it back as a "
+                           f"symbol); choose another name, e.g. {pname}_ or {pname}0")
         if not isinstance(spec, dict):
             spec = {"value": spec}
         _check_keys(ctx, spec, {"value", "kind", "unit", "doc"}, where)
