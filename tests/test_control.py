@@ -235,6 +235,36 @@ def test_elastic_joint_pd_with_gravity_compensation_regulates_links_and_motors()
     assert np.all(res.tau[:, :2] == 0.0)
 
 
+def test_elastic_joint_motor_pd_without_gravity_lyapunov_2024_06_12():
+    """Exam 2024-06-12#3: no gravity, u = K_P (theta_d - theta) - K_D theta'. V = 1/2 q'^T M q' +
+    1/2 theta'^T B theta' + 1/2 (q - theta)^T K (q - theta) + 1/2 (theta_d - theta)^T K_P
+    (theta_d - theta) has V' = -theta'^T K_D theta' <= 0 and the robot comes to rest at q = theta = theta_d."""
+    robot = load_robot(FIXTURES / "elastic_2r.yaml")
+    no_gravity = {"g0": 0.0}
+    kp = np.array([300.0, 200.0])
+    res = simulate(robot, "elastic_pd", reference="setpoint goal=0.7,-0.4", q0=[0, 0, 0, 0], duration=20.0,
+                   gains={"Kp1": kp[0], "Kp2": kp[1], "Kd": 40}, plant_params=no_gravity, model_params=no_gravity)
+    assert res.completed
+    theta_d = np.array([0.7, -0.4])
+    assert np.allclose(res.internals["theta_d_theta1"][0], 0.7) and np.allclose(res.internals["theta_d_theta2"][0], -0.4)
+    num = NumericModel(robot, no_gravity)
+    V = np.array([sum(num.energy(q, dq)) + 0.5 * np.sum(kp * (theta_d - q[2:]) ** 2) for q, dq in zip(res.q, res.dq)])
+    assert np.max(np.diff(V)) < 1e-6 * V[0]
+    dissipated = np.sum(40 * res.dq[:-1, 2:] ** 2) / res.rate      # integral of theta'^T K_D theta'
+    assert V[0] - V[-1] == pytest.approx(dissipated, rel=2e-2)
+    assert np.allclose(res.q[-1], [0.7, -0.4, 0.7, -0.4], atol=1e-4)
+
+
+def test_elastic_joint_online_gravity_compensation_reaches_the_same_equilibrium():
+    robot = load_robot(FIXTURES / "elastic_2r.yaml")
+    res = simulate(robot, "elastic_pd_online", reference="setpoint goal=0.5,0.3", q0=[0, 0, 0, 0], duration=25.0,
+                   gains={"Kp": 400, "Kd": 40})
+    const = simulate(robot, "elastic_pd", reference="setpoint goal=0.5,0.3", q0=[0, 0, 0, 0], duration=0.01)
+    theta_d = [const.internals["theta_d_theta1"][0], const.internals["theta_d_theta2"][0]]
+    assert np.allclose(res.q[-1], [0.5, 0.3] + theta_d, atol=1e-5)
+    assert np.abs(res.tau[:, :2]).max() == 0.0
+
+
 # ---------------------------------------------------------------------- interaction control
 def test_impedance_against_a_compliant_wall_settles_where_the_impedance_balances_the_force():
     """A set point 5 cm behind a wall (k = 5000 N/m): at rest K_m (p - p_d) = F."""

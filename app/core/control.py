@@ -206,7 +206,7 @@ def make_controller(name: str, gains: Optional[Mapping[str, float]] = None) -> C
     >>> make_controller("pid")
     Traceback (most recent call last):
     ...
-    app.core.control.GainError: unknown controller 'pid' (adaptive, admittance, computed_torque, elastic_pd, hybrid, impedance, learning, pd, pd_gravity, pd_gravity_const, pfl_collocated, pfl_noncollocated, robust)
+    app.core.control.GainError: unknown controller 'pid' (adaptive, admittance, computed_torque, elastic_pd, elastic_pd_online, hybrid, impedance, learning, pd, pd_gravity, pd_gravity_const, pfl_collocated, pfl_noncollocated, robust)
     """
     cls = CONTROLLERS.get(name)
     if cls is None:
@@ -568,6 +568,32 @@ class ElasticPD(Controller):
 
     def internals(self):
         return self.theta_d
+
+
+@register
+class ElasticPDOnline(ElasticPD):
+    name = "elastic_pd_online"
+    title = "Elastic joints: motor PD + on-line gravity compensation"
+    law_latex = (r"\tau = K_P(\theta_d - \theta) - K_D \dot\theta + g(\tilde q),\quad "
+                 r"\tilde q = \theta - K^{-1} g(q_d),\quad \theta_d = q_d + K^{-1} g(q_d)")
+    closed_loop = ("The same equilibrium as with the constant g(q_d), but the gravity term follows the motion: it "
+                   "is evaluated at q~, the link position that the motor positions give with the set point's "
+                   "spring deflection (q~ = q_d at the set point; De Luca, Siciliano and Zollo's on-line "
+                   "compensation).")
+
+    def begin(self, reference):
+        super().begin(reference)
+        self.deflection = self.theta_d - reference.goal          # K^-1 g(q_d): motor i drives link i
+        self._x = self.s.q0.copy()
+
+    def step(self, k, t, q, dq, qd, dqd, ddqd):
+        x = self._x
+        x[self.link_index] = q[self.motor_index] - self.deflection
+        g = self.model.num.g(x)[self.link_index]                 # link gravity at q~ (no springs)
+        tau = np.zeros(self.n)
+        Mo = self.motor_index
+        tau[Mo] = self.Kp * (self.theta_d - q[Mo]) - self.Kd * dq[Mo] + g
+        return tau
 
 
 # ====================================================================== Cartesian control and contact

@@ -23,7 +23,7 @@ ORDER = 40
 
 #: controllers in the order of the course
 ORDER_OF_CONTROLLERS = ["pd", "pd_gravity", "pd_gravity_const", "computed_torque", "robust", "adaptive",
-                        "learning", "pfl_collocated", "pfl_noncollocated", "elastic_pd", "impedance",
+                        "learning", "pfl_collocated", "pfl_noncollocated", "elastic_pd", "elastic_pd_online", "impedance",
                         "admittance", "hybrid"]
 HOLD = "hold the start"
 #: reference templates per kind: (joint space, task space); "by" is a displacement from the start
@@ -48,7 +48,7 @@ def controllers_for(robot) -> List[str]:
     names = [n for n in ORDER_OF_CONTROLLERS if n in CONTROLLERS]
     names += sorted(n for n in CONTROLLERS if n not in names)
     if not robot.motor_inertias:
-        names = [n for n in names if n != "elastic_pd"]
+        names = [n for n in names if not n.startswith("elastic")]
     return names
 
 
@@ -271,7 +271,7 @@ class ControlPanel:
             self.surface.value = f"{point} normal=0,1"
         if name.startswith("pfl") and not self.passive.value.strip():
             self.passive.value = self.robot.coordinates[-1]
-        if name in ("learning", "elastic_pd") and self.ref_kind.value not in (HOLD, "setpoint"):
+        if name in ("learning", "elastic_pd", "elastic_pd_online") and self.ref_kind.value not in (HOLD, "setpoint"):
             self.ref_kind.value = "setpoint"                 # regulation schemes
         if name == "learning":
             self.duration.value = max(float(self.duration.value), 20.0)   # four iterations of 5 s
