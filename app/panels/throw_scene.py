@@ -1,0 +1,226 @@
+"""The Throw studio's drawings in the 3D view: the ground with a distance ruler, the theta axis,
+the ball's path during the swing, both flights (true velocity and the thesis's convention) with
+their landing markers and distances, velocity arrows at the release, and the ball itself; and
+a camera that frames the whole throw beside the side panel.
+
+Everything lives under one scene node root per tab (``Nodes``), so that the studio can remove
+exactly what it drew when the robot changes.
+"""
+from __future__ import annotations
+
+import math
+import threading
+from typing import Dict, Optional, Tuple
+
+import numpy as np
+
+from app.scene import arrow as arrow_mesh
+
+from .throw_plots import FLIGHTS, ThrowView, ball_at
+
+SIDE_PANEL_PX = 400            # the side panel floats over the right of the canvas
+FOV = math.radians(28.0)       # as the viewer's planar framing: little perspective
+BALL_COLOR = (214, 39, 40)
+GROUND_COLOR = (90, 96, 108)
+AXIS_COLOR = (120, 150, 200)
+SWING_COLOR = (23, 150, 160)
+
+
+class Nodes:
+    """Scene nodes of one tab under ``root``, by short name; adding a name again replaces it."""
+
+    def __init__(self, scene, root: str = "/throw"):
+        self.scene = scene
+        self.root = root
+        self._handles: Dict[str, object] = {}
+        self._lock = threading.RLock()
+
+    def _put(self, name: str, handle):
+        # viser replaces a node of the same scene name (the old handle goes inert), so there is
+        # nothing to remove here
+        with self._lock:
+            self._handles[name] = handle
+        return handle
+
+    def get(self, name: str):
+        with self._lock:
+            return self._handles.get(name)
+
+    def path(self, name: str) -> str:
+        return f"{self.root}/{name}"
+
+    def segments(self, name: str, segs, color, width: float = 2.0, visible: bool = True):
+        """Line segments (N, 2, 2 or 3) in the plane z = 0, ``width`` in pixels."""
+        segs = np.asarray(segs, dtype=np.float32)
+        if segs.shape[-1] == 2:
+            segs = np.concatenate([segs, np.zeros(segs.shape[:-1] + (1,), np.float32)], axis=-1)
+        if segs.shape[0] == 0:
+            self.remove(name)
+            return None
+        return self._put(name, self.scene.add_line_segments(self.path(name), segs, colors=tuple(color),
+                                                            thickness=width, thickness_units="screen",
+                                                            visible=visible))
+
+    def polyline(self, name: str, points, color, width: float = 2.0, dashed: bool = False, visible: bool = True):
+        """A polyline through (N, 2) points; ``dashed`` draws every other segment. Non-finite
+        points break the line."""
+        pts = np.asarray(points, dtype=float)
+        segs = np.stack([pts[:-1], pts[1:]], axis=1)
+        keep = np.all(np.isfinite(segs), axis=(1, 2))
+        if dashed:
+            keep &= (np.arange(len(segs)) % 2) == 0
+        return self.segments(name, segs[keep], color, width, visible)
+
+    def sphere(self, name: str, position, radius: float, color, visible: bool = True):
+        pos = np.zeros(3)
+        pos[:len(position)] = position
+        return self._put(name, self.scene.add_icosphere(self.path(name), radius=radius, color=tuple(color),
+                                                        position=tuple(pos), cast_shadow=False,
+                                                        receive_shadow=False, visible=visible))
+
+    def label(self, name: str, text: str, position, anchor: str = "bottom-left", scale: float = 1.0,
+              visible: bool = True):
+        pos = np.zeros(3)
+        pos[:len(position)] = position
+        return self._put(name, self.scene.add_label(self.path(name), text, position=tuple(pos), anchor=anchor,
+                                                    font_screen_scale=scale, visible=visible))
+
+    def arrow(self, name: str, start, vector, color, radius: float = 0.012, visible: bool = True):
+        s = np.zeros(3)
+        s[:len(start)] = start
+        v = np.zeros(3)
+        v[:len(vector)] = vector
+        if np.linalg.norm(v) < 1e-9:
+            self.remove(name)
+            return None
+        mesh = arrow_mesh(s, v, radius)
+        return self._put(name, self.scene.add_mesh_simple(self.path(name), mesh.vertices.astype(np.float32),
+                                                          mesh.faces.astype(np.uint32), color=tuple(color),
+                                                          cast_shadow=False, receive_shadow=False,
+                                                          visible=visible))
+
+    def remove(self, name: str) -> None:
+        with self._lock:
+            handle = self._handles.pop(name, None)
+        if handle is not None:
+            _remove(handle)
+
+    def names(self):
+        with self._lock:
+            return list(self._handles)
+
+    def clear(self, prefix: str = "") -> None:
+        for name in self.names():
+            if name.startswith(prefix):
+                self.remove(name)
+
+
+def _remove(handle) -> None:
+    try:
+        handle.remove()
+    except Exception:     # already gone (its parent was removed, or the tab closed)
+        pass
+
+
+# ====================================================================== camera
+def throw_camera(region: Tuple[float, float, float, float], width: int, height: int, fov: float = FOV,
+                 fill: float = 0.93, side_panel: int = SIDE_PANEL_PX):
+    """(position, look_at, up) of a camera square-on to the plane z = 0 that shows the rectangle
+    ``region`` = (x_min, x_max, y_min, y_max) [m] in the part of the canvas not covered by the side
+    panel.
+
+    >>> pos, look, up = throw_camera((-1.0, 3.0, -1.0, 2.0), 1280, 720)
+    >>> bool(pos[2] > 0 and look[0] > 1.0 and pos[1] == 0.5), up.tolist()
+    (True, [0.0, 1.0, 0.0])
+    """
+    x0, x1, y0, y1 = region
+    aspect = width / height if height > 0 else 16 / 9
+    occluded = side_panel / width if width > 2.2 * side_panel else 0.0
+    tan = math.tan(fov / 2)
+    visible_aspect = aspect * (1.0 - occluded)
+    distance = max((y1 - y0) / 2 / tan, (x1 - x0) / 2 / (tan * visible_aspect)) / fill
+    center = np.array([(x0 + x1) / 2, (y0 + y1) / 2, 0.0])
+    # the screen's centre sits right of the region's so that the region is centred in the visible part
+    look_at = center + np.array([occluded * distance * tan * aspect, 0.0, 0.0])
+    return look_at + np.array([0.0, 0.0, distance]), look_at, np.array([0.0, 1.0, 0.0])
+
+
+# ====================================================================== the throw
+class ThrowDrawing:
+    """The throw's overlays (see the module docstring); ``show(view)`` draws a throw, ``at(t)``
+    places the ball (and returns the arm's angles) at time t of the animation."""
+
+    def __init__(self, nodes: Nodes, shoulder_height: float, ball_radius: float = 0.035):
+        self.nodes = nodes
+        self.shoulder = np.array([0.0, shoulder_height])
+        self.ball_radius = ball_radius
+        self.view: Optional[ThrowView] = None
+        self._ground_to: Optional[float] = None
+
+    def ground(self, x_to: float) -> None:
+        """The ground line y = 0 from behind the base to x_to, ticks every 0.5 m, labels every metre."""
+        x_to = max(2.0, math.ceil(x_to * 2) / 2 + 0.5)
+        if self._ground_to == x_to:
+            return
+        self._ground_to = x_to
+        n = self.nodes
+        n.segments("ground", [[[-1.0, 0.0], [x_to, 0.0]]], GROUND_COLOR, 2.5)
+        ticks = np.arange(0.5, x_to - 0.25, 0.5)
+        n.segments("ground_ticks", [[[x, 0.0], [x, -0.05 if x % 1 == 0 else -0.03]] for x in ticks], GROUND_COLOR, 1.5)
+        n.clear("ground_label")
+        for x in ticks[ticks % 1 == 0]:
+            n.label(f"ground_label{int(x)}", f"{int(x)} m", (x, -0.07), anchor="top-center", scale=0.9)
+
+    def show(self, view: ThrowView) -> None:
+        """Draw a throw: theta axis, swing path, flights, landing markers and labels, release arrows."""
+        self.view = view
+        n, spec, rel = self.nodes, view.spec, view.release
+        lands = {k: f.landing_x for k, f in view.flights.items()}
+        self.ground(max(lands.values()))
+        u = np.array([math.cos(spec.psi), math.sin(spec.psi)])
+        n.polyline("theta_axis", [self.shoulder + spec.theta_b * u, self.shoulder + spec.theta_e * u],
+                   AXIS_COLOR, 1.5, dashed=False)
+        n.label("theta_axis_label", f"θ axis, ψ = {spec.psi_deg:.1f}°", self.shoulder + (spec.theta_e + 0.03) * u,
+                anchor="center-left", scale=0.85)
+        n.polyline("swing", view.samples.ball.T, SWING_COLOR, 2.0)
+        for key, flight in view.flights.items():
+            _label, color = FLIGHTS[key]
+            n.polyline(f"flight_{key}", flight.path(120), color, 2.5 if key == "true" else 2.0, dashed=key != "true")
+            n.sphere(f"land_{key}", (lands[key], 0.0), 0.03, color)
+            n.arrow(f"velocity_{key}", rel.position, 0.12 * np.asarray(flight.velocity), color, 0.011)
+        true_x, thesis_x = lands["true"], lands["thesis"]
+        # the labels stacked above their markers, the farther one higher, so that they never overlap
+        high, low = ("true", "thesis") if true_x >= thesis_x else ("thesis", "true")
+        texts = {"true": f"J q̇: {rel.distance_from_base:.3f} m from the base, {rel.distance_from_release:.3f} m "
+                         f"from the release",
+                 "thesis": f"θ̇ along ψ (thesis): {rel.distance_from_base_thesis:.3f} m from the base, "
+                           f"{rel.distance_from_release_thesis:.3f} m from the release"}
+        for key, height in ((high, 0.36), (low, 0.2)):
+            x = lands[key]
+            n.segments(f"land_{key}_stem", [[[x, 0.03], [x, height - 0.01]]], FLIGHTS[key][1], 1.2)
+            n.label(f"land_{key}_label", texts[key], (x, height), anchor="bottom-right", scale=0.9)
+        self.at(0.0)
+
+    def at(self, t: float) -> Optional[np.ndarray]:
+        """Put the ball where it is at time t; returns the arm's joint angles then (None without a throw)."""
+        if self.view is None:
+            return None
+        q, ball = ball_at(self.view, t)
+        handle = self.nodes.get("ball")
+        if handle is None:
+            self.nodes.sphere("ball", ball, self.ball_radius, BALL_COLOR)
+        else:
+            handle.position = (float(ball[0]), float(ball[1]), 0.0)
+        return q
+
+    def end_time(self) -> float:
+        return self.view.duration + self.view.flight_time("true") if self.view else 0.0
+
+    def region(self, extra_below: float = 0.0) -> Tuple[float, float, float, float]:
+        """The rectangle the camera should show: base, arm, both flights and the landing labels."""
+        view = self.view
+        x_hi = max([f.landing_x for f in view.flights.values()] + [1.5]) + 0.35
+        apex = max(float(np.max(f.path(60)[:, 1])) for f in view.flights.values())
+        y_hi = max(apex, float(self.shoulder[1]) + 1.05) + 0.3
+        return -1.0, x_hi, -0.3 - extra_below, y_hi
+
