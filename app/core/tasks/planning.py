@@ -19,6 +19,15 @@ A *law* spec is {type: cubic | quintic | bang_bang | trapezoidal, T, V, A, Ts, r
   moves bang-bang between ``start`` and ``goal`` with its own acceleration and deceleration bounds
   from ``torque`` bounds. Answers ``T_<coordinate>``, ``T_<coordinate>_switch``, ``T_star``,
   ``u_static`` (g, the force held at rest), ``initial_slope`` (q''_2/q''_1 at t = 0).
+``path_minimum_time``: time-optimal rest-to-rest motion along a given joint ``path`` (phase-plane
+  method, ``app.core.time_optimal``): ``path`` is {start, goal} (a joint-space segment) or
+  {coordinate: expression of s} for s in [0, 1] (names of ``given`` allowed); bounds ``torque``
+  (symmetric list, or {lower, upper}), ``velocity``, ``acceleration`` (any subset); ``nodes``
+  (grid intervals, default 1000); ``at`` (times; expressions may use the answer T_min) for samples;
+  ``suffix`` (appended to the answer names as ``_<suffix>``). Answers
+  ``T_min``, ``arcs`` (kinds, in order), ``switch_s``, ``switch_times``, ``dq_peak`` (max |q'_i|),
+  ``ddq_start`` and ``tau_start`` (q'' and torque just after the start), and at the times ``at``:
+  ``q_at``, ``dq_at``, ``ddq_at``, ``tau_at`` (one row per time).
 ``cartesian_tracking``: feedback linearization of a point's motion along the straight path
   ``start`` -> ``goal`` with a ``law``, errors decoupled in the task frame (tangent t, normal n):
   e'' + K_D e' + K_P e = 0 with ``kp``, ``kd`` (task frame). Initial state ``q``, ``velocity``.
@@ -29,9 +38,11 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.linalg
+import sympy as sp
 
 from .. import jacobians as jac
 from .. import planning as pl
+from .. import time_optimal as topt
 from ..errors import UserError
 from ..latex import mat, num, vec
 from . import task
@@ -251,7 +262,6 @@ def cartesian_tracking_task(ctx, spec):
     r_sym = jac.task_function(robot, point, comps)
     J = np.atleast_2d(jac.evaluate(robot, J_sym, q, d.params))
     p = np.asarray(jac.evaluate(robot, r_sym, q, d.params), float).reshape(-1)
-    import sympy as sp
     Jdot = sp.zeros(*J_sym.shape)
     for qk, vk in zip(robot.q, dq):
         if vk:
@@ -297,3 +307,76 @@ def cartesian_tracking_task(ctx, spec):
         ctx.answer("error_t", et)
         ctx.answer("p_d_t", pdt)
         ctx.answer("p_t", pdt - et)
+
+
+def _path(d, spec):
+    """A JointPath from {start, goal} or {coordinate: expression of s}."""
+    robot = d.robot
+    if not isinstance(spec, dict):
+        raise d._fail("path: expected {start, goal} or {coordinate: expression of s}")
+    if "start" in spec or "goal" in spec:
+        q0, delta = _joint_path(d, spec)
+        return topt.JointPath.line(q0, q0 + delta)
+    missing = [c for c in robot.coordinates if c not in spec]
+    unknown = [k for k in spec if k not in robot.coordinates]
+    if missing or unknown:
+        raise d._fail(f"path: give one expression of s for each of {', '.join(robot.coordinates)}"
+                      + (f" (unknown: {', '.join(map(str, unknown))})" if unknown else ""))
+    s = sp.Symbol("s", real=True)
+    values = {sp.Symbol(k, real=True): v for k, v in d.scalars().items() if k != "s"}
+    exprs = [d.expression(str(spec[c]), f"path.{c}").xreplace(values) for c in robot.coordinates]
+    try:
+        return topt.JointPath.from_expressions(exprs, s)
+    except UserError as exc:
+        raise d._fail(f"path: {exc}") from None
+
+
+@task("path_minimum_time")
+def path_minimum_time_task(ctx, spec):
+    """Minimum time along a given path under joint velocity, acceleration and torque bounds."""
+    d = data(ctx)
+    robot = d.robot
+    n = robot.n
+    path = _path(d, spec.get("path"))
+    torque = None
+    if "torque" in spec:
+        tq = spec["torque"]
+        torque = d.bounds(tq, n, "torque") if isinstance(tq, dict) else (-d.array(tq, "torque") * np.ones(n), d.array(tq, "torque") * np.ones(n))
+    velocity = d.array(spec["velocity"], "velocity") * np.ones(n) if "velocity" in spec else None
+    acceleration = d.array(spec["acceleration"], "acceleration") * np.ones(n) if "acceleration" in spec else None
+    try:
+        res, _ = topt.minimum_time_along_path(path, ctx.numeric if torque is not None else None, torque, velocity, acceleration,
+                                              nodes=int(spec.get("nodes", 1000)), names=robot.coordinates)
+    except UserError as exc:
+        raise d._fail(str(exc)) from None
+    bounds = [f"{name} {vec(v)}" for name, v in (("|tau| <=", torque[1] if torque else None), ("|q'| <=", velocity),
+                                                  ("|q''| <=", acceleration)) if v is not None]
+    q_ends = path.q(np.array([0.0, 1.0]))
+    ctx.step("Path", rf"q(0) = {vec(q_ends[0])},\ q(1) = {vec(q_ends[1])}", "Bounds: " + "; ".join(bounds) + ".",
+             configuration={c: float(v) for c, v in zip(robot.coordinates, q_ends[0])})
+    ctx.steps.extend(res.steps)
+    sfx = f"_{spec['suffix']}" if spec.get("suffix") else ""
+
+    def answer(key, value):
+        ctx.answer(key + sfx, value)
+    answer("T_min", res.T)
+    answer("arcs", [a.kind for a in res.arcs])
+    answer("switch_s", [s for s, _ in res.switch_points])
+    answer("switch_times", [t for _, t in res.switch_points])
+    t = np.linspace(0.0, res.T, 4001)
+    q, dq, ddq = topt.joint_motion(res, path, t)
+    answer("dq_peak", np.abs(dq).max(axis=0))
+    q0, dq0, ddq0 = topt.joint_motion(res, path, [0.0])
+    answer("ddq_start", ddq0[0])
+    answer("tau_start", ctx.numeric.inverse_dynamics(q0[0], dq0[0], ddq0[0]))
+    if "at" in spec:
+        times = [d.number(x, "at") for x in (spec["at"] if isinstance(spec["at"], list) else [spec["at"]])]
+        q, dq, ddq = topt.joint_motion(res, path, times)
+        tau = np.array([ctx.numeric.inverse_dynamics(q[k], dq[k], ddq[k]) for k in range(len(times))])
+        ctx.step("Samples of the optimal motion", ", ".join(rf"\tau({num(tt)}) = {vec(tau[k])}" for k, tt in enumerate(times)),
+                 "Joint torques along the minimum-time motion.",
+                 configuration={c: float(v) for c, v in zip(robot.coordinates, q[0])})
+        answer("q_at", q)
+        answer("dq_at", dq)
+        answer("ddq_at", ddq)
+        answer("tau_at", tau)
