@@ -477,6 +477,8 @@ class SimResult:
     forces: Dict[str, np.ndarray] = field(default_factory=dict)
     force_axes: List[str] = field(default_factory=list)
     tau_ext: Optional[np.ndarray] = None           # sum of J^T F over the contacts (None: no contacts)
+    contact_points: Dict[str, np.ndarray] = field(default_factory=dict)   # where each force acts (N x 3)
+    surfaces: List[tuple] = field(default_factory=list)   # (point, normal (3), offset, 'rigid' or 'wall')
     task_point: Optional[str] = None               # the point of a Cartesian controller
     ref_points: Optional[np.ndarray] = None        # its reference and actual positions (N x 3, world)
     actual_points: Optional[np.ndarray] = None
@@ -708,6 +710,7 @@ def simulate(robot: Union[RobotModel, str], controller: Union[Controller, str], 
     contact_names = [c.name for c in resolved]
     FORCES = np.zeros((N + 1, len(resolved), resolved[0].point.dim)) if resolved else None
     TEXT = np.zeros((N + 1, n)) if resolved else None
+    CPOS = np.zeros((N + 1, len(resolved), resolved[0].point.dim)) if resolved else None
 
     # the loop
     step = controller.step
@@ -741,6 +744,7 @@ def simulate(robot: Union[RobotModel, str], controller: Union[Controller, str], 
                 text = np.zeros(n)
                 for j, f in enumerate(plant.forces(tk, q, dq, tau)):
                     FORCES[k, j] = f
+                    CPOS[k, j] = resolved[j].point.position(q)
                     if f.any():
                         text = text + resolved[j].point.jacobian(q).T @ f
                 TEXT[k] = text
@@ -828,11 +832,12 @@ def simulate(robot: Union[RobotModel, str], controller: Union[Controller, str], 
     if getattr(controller, "point", None) is not None:
         ref_points = controller.reference_points(QD[sl])
         act_points = _pad3(np.array([controller.point.position(qk) for qk in Q[sl]]))
-    forces = {}
+    forces, contact_points = {}, {}
     if FORCES is not None:
         for j, name in enumerate(contact_names):
             key = name if name not in forces else f"{name}{j + 1}"
             forces[key] = FORCES[sl, j].copy()
+            contact_points[key] = _pad3(CPOS[sl, j])
     settings = {"duration_s": f"{duration:g}", "substeps": str(substeps), "backend": plant_terms.backend}
     if plant_params:
         settings["plant"] = ", ".join(f"{k}={v:g}" for k, v in plant_params.items())
@@ -862,7 +867,8 @@ def simulate(robot: Union[RobotModel, str], controller: Union[Controller, str], 
         t=t[sl].copy(), q=Q[sl].copy(), dq=DQ[sl].copy(), ddq=DDQ[sl].copy(), tau=TAU[sl].copy(),
         ref=QD[sl].copy(), dref=DQD[sl].copy(), ddref=DDQD[sl].copy(), actual=X, dactual=DX,
         internals=internals, forces=forces, force_axes=(resolved[0].point.axes if resolved else []),
-        tau_ext=None if TEXT is None else TEXT[sl].copy(), task_point=getattr(getattr(controller, "point", None), "name", None),
+        tau_ext=None if TEXT is None else TEXT[sl].copy(), contact_points=contact_points,
+        surfaces=[(c.name, _pad3(c.n[None, :])[0], c.offset, c.kind) for c in resolved if c.kind != "force"], task_point=getattr(getattr(controller, "point", None), "name", None),
         ref_points=ref_points, actual_points=act_points,
         message=message, rate=rate, wall_time=time.perf_counter() - wall0, loop_time=loop_time, settings=settings)
 

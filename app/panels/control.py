@@ -105,6 +105,21 @@ def plot_groups(res: SimResult, true_coefficients: Optional[Sequence[float]] = N
     return groups
 
 
+def decade(series) -> int:
+    """The power of ten that brings a plot's values into [1, 10000) for its axis labels (0 when
+    they already are), since uPlot's default tick labels keep 3 decimals.
+
+    >>> decade([("e", np.array([2e-5, -3e-5]), False, 0)])
+    -5
+    >>> decade([("tau", np.array([120.0, -35.0]), False, 0)])
+    0
+    """
+    peak = max((float(np.max(np.abs(v))) for _, v, _, _ in series), default=0.0)
+    if peak == 0.0 or 0.01 <= peak < 1e4:
+        return 0
+    return int(np.floor(np.log10(peak)))
+
+
 def _thin(n: int) -> np.ndarray:
     """Indices of at most MAX_PLOT_POINTS samples, always including the last one."""
     if n <= MAX_PLOT_POINTS:
@@ -189,6 +204,8 @@ class ControlPanel:
         self._replay_lock = threading.Lock()
         self._result_widgets: List = []
         self._plots: List = []
+        self._overlays = set()           # names of this panel's scene overlays
+        self._force_scale = 0.0
         self._build()
         self.state["panel"] = self
 
@@ -342,6 +359,8 @@ class ControlPanel:
 
     def show_time(self, t: float) -> None:
         """Stop the replay and show the run at time t."""
+        if self.result is None:
+            raise RuntimeError("no run to show (the last one failed: see the notification)")
         with self._replay_lock:
             self._replay.update(t=float(t), playing=False)
         self.time.value = float(t)
@@ -424,7 +443,11 @@ class ControlPanel:
 
     def _add_plot(self, title: str, series):
         idx = _thin(len(self.result.t))
-        data = (self.result.t[idx],) + tuple(np.asarray(v, dtype=float)[idx] for _, v, _, _ in series)
+        power = decade(series)
+        if power:
+            title = f"{title}  [× 1e{power}]"
+        scale = 10.0 ** -power
+        data = (self.result.t[idx],) + tuple(scale * np.asarray(v, dtype=float)[idx] for _, v, _, _ in series)
         cfg = ({"label": "t [s]"},) + tuple(
             {"label": label, "stroke": COLORS[ci % len(COLORS)], "width": 1.5, **({"dash": [6, 4]} if dashed else {})}
             for label, _, dashed, ci in series)
@@ -434,13 +457,27 @@ class ControlPanel:
                                   cursor={"drag": {"x": True, "y": False}})
 
     def _draw_paths(self) -> None:
+        """The run's fixed overlays: reference and actual paths of a task point, the surfaces."""
         scene, res = self.session.scene, self.result
-        for name in ("control_ref_path", "control_path", "control_ref_point"):
+        for name in self._overlays:
             scene.remove_overlay(name)
+        self._overlays = {"control_ref_path", "control_path", "control_ref_point"}
+        self._overlays |= {f"control_surface{i}" for i in range(len(res.surfaces))}
+        self._overlays |= {f"control_force{i}{end}" for i in range(len(res.forces)) for end in ("", "_label")}
         scene.remove_ghost("control_ref")
         if res.ref_points is not None:
             scene.add_trajectory("control_ref_path", res.ref_points, color=(150, 150, 150))
             scene.add_trajectory("control_path", res.actual_points, color=(31, 119, 180))
+        half = 0.6 * self.session.drawing.scale
+        for i, (point, normal, offset, kind) in enumerate(res.surfaces):
+            start = res.contact_points[point][0]
+            foot = start - (normal @ start - offset) * normal           # on the surface
+            tangent = np.cross(normal, [0.0, 0.0, 1.0]) if abs(normal[2]) < 0.9 else np.cross(normal, [1.0, 0, 0])
+            tangent /= np.linalg.norm(tangent)
+            scene.add_line(f"control_surface{i}", [foot - half * tangent, foot + half * tangent],
+                           color=(90, 90, 90) if kind == "rigid" else (160, 120, 60), width=5.0)
+        peak = max((float(np.max(np.linalg.norm(f, axis=1))) for f in res.forces.values()), default=0.0)
+        self._force_scale = 0.35 * self.session.drawing.scale / peak if peak > 0 else 0.0
 
     def _reference_q(self, k: int) -> Optional[np.ndarray]:
         """The reference as a configuration for the ghost (referenced coordinates from q_d, the
@@ -467,6 +504,15 @@ class ControlPanel:
                 scene.ghost(ghost, "control_ref", color=(120, 160, 230), opacity=0.3)
             elif res.ref_points is not None:
                 scene.add_marker("control_ref_point", res.ref_points[k], color=(120, 160, 230))
+            for i, (name, forces) in enumerate(res.forces.items()):     # contact forces on the robot
+                F = np.zeros(3)
+                F[:forces.shape[1]] = forces[k]
+                if np.linalg.norm(F) * self._force_scale > 1e-4:
+                    scene.add_arrow(f"control_force{i}", res.contact_points[name][k], F * self._force_scale,
+                                    color=(214, 39, 40), label=f"{np.linalg.norm(F):.3g} N")
+                else:
+                    scene.remove_overlay(f"control_force{i}")
+                    scene.remove_overlay(f"control_force{i}_label")
 
     # -------------------------------------------------------------- replay
     def _time_moved(self, event) -> None:
@@ -553,13 +599,13 @@ DOC_SHOTS = {
 
 
 def save_screenshot(out, robot: str, settings: Dict, t_show: float, scroll: int, lab=None, browser=None,
-                    height: int = 900):
-    """Run a controller in the page from q = 0 and save the robot (at ``t_show``, with the
+                    height: int = 900, q=None):
+    """Run a controller in the page from q (default 0) and save the robot (at ``t_show``, with the
     reference ghost) and the plots (the panel scrolled by ``scroll`` pixels) as a PNG."""
     from app.viewer.screenshot import capture
 
     def setup(session):
-        session.set_q(np.zeros(session.robot.n))
+        session.set_q(np.zeros(session.robot.n) if q is None else q)
         panel = session.state["control"]["panel"]
         panel.configure(**settings)
         panel.run(wait=True)
