@@ -19,7 +19,9 @@ Task kinds (options -> answers):
   parameter, if any).
 - ``adaptive_law``: u = Y_r a_hat (+ the known part) + K_P e + K_D e', a_hat' = Gamma Y_r^T (q'_r - q').
   Options: those of ``parametrization`` and ``estimate`` (1-based indices of the coefficients that
-  are adapted; default all), ``lambda`` (``"KP/KD"``, the default, or ``"free"``). Answers:
+  are adapted; default all), ``known_terms`` (model terms outside ``terms`` that are known and
+  computed on the reference motion, e.g. [inertia, coriolis] when only gravity is adapted),
+  ``lambda`` (``"KP/KD"``, the default, or ``"free"``). Answers:
   ``u``, ``update``, ``dq_r``, ``ddq_r``, ``Y_r``, ``a``, ``dimension``, ``V_dot`` (the Lyapunov
   derivative with Lambda = K_D^-1 K_P).
 - ``computed_torque``: ``form`` feedback_linearization (default: u = M (q''_d + K_D e' + K_P e) + n)
@@ -276,6 +278,16 @@ def adaptive_law_task(ctx, spec):
     gamma = [symbol(f"gamma{k + 1}") for k in est]
     Y_est = par.Y_r.extract(list(range(n)), est) if est else sp.zeros(n, 0)
     known_terms = par.known_part_r
+    extra = spec.get("known_terms") or []
+    bad = [t for t in extra if t not in TERMS or t in spec.get("terms", TERMS)]
+    if bad:
+        raise ExerciseError(f"adaptive_law.known_terms: {bad} are not model terms outside 'terms'")
+    if extra:
+        dqr, ddqr = (sp.Matrix(v) for v in m.robot.reference_symbols())
+        ref = {"inertia": m.M * ddqr, "coriolis": m.C * dqr, "gravity": m.dyn.g, "spring": m.dyn.spring,
+               "friction": m.dyn.friction.subs(dict(zip(m.dq, dqr)), simultaneous=True)}
+        for t in extra:
+            known_terms = known_terms + ref[t]
     if fixed:
         known_terms = known_terms + par.Y_r.extract(list(range(n)), fixed) * sp.Matrix([par.a[k] for k in fixed])
     known_terms = m.tidy_matrix(known_terms)

@@ -276,7 +276,7 @@ def pfl_task(ctx, spec):
             raise ExerciseError(f"pfl.outer: expected a mapping input -> expression for the inputs {names}")
         sub = {symbol(k): ctx.expr(v, f"pfl.outer.{k}") for k, v in outer.items()}
         u_outer = m.tidy_matrix(u.subs(sub))
-        ctx.step("Outer loop", ", ".join(rf"{m.L(symbol(k))} = {m.L(v)}" for k, v in sub.items())
+        ctx.step("Outer loop", ", ".join(rf"{m.L(k)} = {m.L(v)}" for k, v in sub.items())
                  + rf",\quad u = {m.L(u_outer)}",
                  "A stabilizing choice of the new inputs, substituted into the law.")
         ctx.answer("u_outer" + sfx, u_outer)
@@ -348,6 +348,43 @@ def linearization_task(ctx, spec):
 
 
 # ====================================================================== steady rotations
+def solve_trig(expr, angle):
+    """Roots in (-pi, pi] of a polynomial in sin(angle), cos(angle) whose factors are each linear in
+    one of them (None when some factor is not): sin = k gives asin(k) and pi - asin(k), cos = k
+    gives +-acos(k).
+
+    >>> q = symbol("q"); w, g = sp.symbols("w g", positive=True)
+    >>> solve_trig(sp.sin(q) * (g - w * sp.cos(q)), q)
+    [0, pi, acos(g/w), -acos(g/w)]
+    """
+    S, C = sp.Dummy("S"), sp.Dummy("C")
+    poly = sp.expand(sp.expand_trig(expr)).subs({sp.sin(angle): S, sp.cos(angle): C})
+    if angle in poly.free_symbols:
+        return None
+    roots = []
+    for factor, _mult in sp.factor_list(poly)[1]:
+        fs = factor.free_symbols
+        if S in fs and C in fs or not fs & {S, C}:
+            if S in fs and C in fs:
+                return None
+            continue
+        x = S if S in fs else C
+        if sp.degree(factor, x) != 1:
+            return None
+        k = sp.solve(factor, x)[0]
+        if x is S:
+            cand = [sp.asin(k), sp.pi - sp.asin(k)]
+        else:
+            cand = [sp.acos(k), -sp.acos(k)]
+        for r in cand:
+            r = sp.simplify(r)
+            if r.is_number:
+                r = sp.pi if r == -sp.pi else r
+            if not any(sp.simplify(r - o) == 0 for o in roots):
+                roots.append(r)
+    return roots
+
+
 def _sort_solutions(rows, values):
     def key(row):
         try:
@@ -382,13 +419,17 @@ def steady_rotation_task(ctx, spec):
         return
     unknowns = [m.q[i] for i in free]
     eqs = [torque[i] for i in zero]
-    try:
-        sols = sp.solve(eqs, unknowns, dict=True)
-    except NotImplementedError:
-        sols = []
-    if not sols:
+    rows = None
+    if len(unknowns) == 1 and len(eqs) == 1:
+        rows = [[r] for r in solve_trig(eqs[0], unknowns[0])]
+    if rows is None:
+        try:
+            sols = sp.solve(eqs, unknowns, dict=True)
+        except NotImplementedError:
+            sols = []
+        rows = [[tidy(s_.get(u, u)) for u in unknowns] for s_ in sols]
+    if not rows:
         raise ExerciseError("steady_rotation: no closed-form solution of the steady-state equations")
-    rows = [[tidy(s.get(u, u)) for u in unknowns] for s in sols]
     values = {p.symbol: p.value for p in m.robot.parameters.values()}
     values.update({k: v for k, v in ((symbol(k), v) for k, v in ctx.given.items())})
     rows = _sort_solutions(rows, values)
