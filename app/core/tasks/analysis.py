@@ -46,7 +46,8 @@ Task kinds (options -> answers):
   ``M_at``, ``g_at``, ``c_at``, ``tau_at`` (M q'' + c + g + k + friction, when ``acceleration``
   is given), ``T_at`` (kinetic energy).
 - ``kinetic_energy_decay``: the torque tau = -(gamma/2) M(q) q' that gives T' = q'^T tau = -gamma T
-  without potential forces. Options: ``gamma`` (a number or a symbol), ``at``, ``velocity``.
+  without potential forces. Options: ``gamma`` (a number or a symbol, default ``gamma_``), ``at``,
+  ``velocity``.
   Answers: ``tau_decay``, ``tau_decay_at``.
 
 >>> from app.core.exercise import parse_exercise, solve
@@ -72,6 +73,7 @@ from ..dynamics import natural_angles, pretty
 from ..exercise import ExerciseError
 from ..expressions import ExpressionError, parse_number, symbol
 from ..kinematics import Kinematics
+from ..robot import RESERVED_NAMES
 from ..steps import to_latex
 from ..trig import TrigPoly
 from . import task
@@ -107,7 +109,12 @@ class _Analysis:
         return ExerciseError(f"{self.where(option)}: {what}")
 
     def expr(self, value, option: str) -> sp.Expr:
-        return self.ctx.expr(value, f"{self.kind}.{option}")
+        out = self.ctx.expr(value, f"{self.kind}.{option}")
+        clash = sorted(s.name for s in out.free_symbols if s.name in RESERVED_NAMES)
+        if clash:
+            raise self.fail(option, f"{', '.join(clash)}: a sympy/Python name that would not read back as a "
+                            f"symbol in the JSON answers; use e.g. {clash[0]}_")
+        return out
 
     def number(self, value, option: str) -> float:
         try:
@@ -859,7 +866,7 @@ def evaluate_task(ctx, spec):
 def kinetic_energy_decay_task(ctx, spec):
     """The torque that makes the kinetic energy decay exponentially (see the module docstring)."""
     a = _Analysis(ctx, spec, "kinetic_energy_decay")
-    gamma = a.expr(spec.get("gamma", "gamma"), "gamma")
+    gamma = a.expr(spec.get("gamma", "gamma_"), "gamma")
     tau = a.tidy_matrix(-gamma / 2 * a.M * a.dq)
     a.ctx.step("Power balance", r"\dot T = \dot q^T \tau \;(\text{no potential forces}),\quad "
                r"-\gamma T = -\tfrac{\gamma}{2}\dot q^T M(q)\dot q",
