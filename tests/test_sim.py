@@ -252,3 +252,18 @@ def test_every_controller_on_every_shipped_robot_runs_or_says_why():
             assert np.all(np.isfinite(res.q)) and (res.completed or res.message)
             ran += 1
     assert ran > 100
+
+
+def test_a_contact_wrench_enters_as_jacobian_transposes():
+    """A force and a moment on link 2 of the planar 2R: tau_ext = J^T F + J_w^T mu (J_w = [1, 1] for
+    a moment about z on link 2)."""
+    robot = load_robot("planar_2r")
+    q0 = np.array([0.3, 0.7])
+    F, mu = np.array([4.0, -7.0]), 2.5
+    res = simulate(robot, "pd", passive=["q1", "q2"], q0=q0, duration=0.002,
+                   contacts=[PointForce(("link2", [0.4, 0, 0]), F, moment=mu)])
+    J = TaskPoint(robot, ("link2", [0.4, 0, 0])).jacobian(q0)
+    expected = J.T @ F + np.array([mu, mu])
+    assert np.allclose(res.tau_ext[0], expected, atol=1e-12)
+    num = NumericModel(robot)
+    assert np.allclose(res.ddq[0], np.linalg.solve(num.M(q0), expected - num.bias(q0, np.zeros(2))), atol=1e-10)

@@ -42,8 +42,8 @@ def add_arguments(p):
     p.add_argument("--saturation", help="torque bounds, one value or one per joint, or 'limits' (the file's)")
     p.add_argument("--passive", help="comma-separated passive coordinates (default: the file's); '' for none")
     p.add_argument("--force", action="append", default=[], metavar="SPEC",
-                   help="a force on a point: 'POINT F=fx,fy [from=t0] [to=t1] [at=x,y,z]' (POINT: a named point "
-                        "or a body, with at= its local position); repeatable")
+                   help="a force on a point: 'POINT F=fx,fy [M=moment] [from=t0] [to=t1] [at=x,y,z]' (POINT: a "
+                        "named point or a body, with at= its local position; M: a moment on the body); repeatable")
     p.add_argument("--surface", action="append", default=[], metavar="SPEC",
                    help="a surface the point cannot cross: 'POINT normal=nx,ny [offset=o] [k=stiffness d=damping]' "
                         "(rigid without k; through the point's initial position without offset); repeatable")

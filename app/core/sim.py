@@ -268,6 +268,14 @@ class TaskPoint:
     def jacobian(self, q) -> np.ndarray:
         return np.asarray(self._fJ(q, self.p), dtype=float).reshape(self._shape)
 
+    def angular_jacobian(self, q) -> np.ndarray:
+        """J_w(q) (3 x n, world frame) of the body the point is fixed in."""
+        fn = self.__dict__.get("_fJw")
+        if fn is None:
+            Jw = Kinematics(self.robot).angular_jacobian(self.body)
+            fn = self._fJw = sp.lambdify([self.robot.q, self.robot.parameter_symbols], Jw, "numpy", cse=True)
+        return np.asarray(fn(q, self.p), dtype=float).reshape(3, self.robot.n)
+
     def kinematics(self, q, dq) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(p, J, J' q') in one evaluation; J' q' is the velocity-product part of the acceleration."""
         p, J, Jd = self._fall(q, dq, self.p)
@@ -304,12 +312,15 @@ def resolve_point(robot: RobotModel, point) -> Tuple[Optional[str], Tuple, str]:
 # ====================================================================== contacts
 @dataclass
 class PointForce:
-    """A force F (world frame, newtons: x, y for planar robots) on a point, between ``start`` and
-    ``end`` seconds: a collision, a push, a payload."""
+    """A force F (world frame, newtons: x, y for planar robots) on a point, and optionally a moment
+    (world frame, N m: one value about z for planar robots) on its body, between ``start`` and
+    ``end`` seconds: a collision, a push, a payload, a contact wrench. Joint torque
+    J^T F + J_w^T moment."""
     point: Union[str, Tuple]
     force: Sequence[float]
     start: float = 0.0
     end: float = math.inf
+    moment: Optional[Sequence[float]] = None
 
 
 @dataclass
@@ -351,6 +362,17 @@ class _Contact:
                 raise SimulationError(f"force on {self.name}: the end time must follow the start time")
             self.F = F
             self.kind = "force"
+            self.moment = None
+            if spec.moment is not None:
+                mu = np.atleast_1d(np.asarray(spec.moment, dtype=float)).reshape(-1)
+                if dim == 2 and mu.size == 1:
+                    mu = np.array([0.0, 0.0, mu[0]])
+                if mu.size != 3 or not np.all(np.isfinite(mu)) or (dim == 2 and np.any(mu[:2])):
+                    raise SimulationError(f"moment on {self.name}: " + ("one value (about z) for a planar robot"
+                                          if dim == 2 else "three finite components"))
+                if self.point.body is None:
+                    raise SimulationError(f"moment on {self.name}: the point is on the base, which does not move")
+                self.moment = mu
         else:
             n = np.asarray(spec.normal, dtype=float).reshape(-1)
             if n.size == 3 and dim == 2:
@@ -364,6 +386,13 @@ class _Contact:
             if spec.damping < 0:
                 raise SimulationError("surface damping must not be negative")
             self.kind = "rigid" if spec.rigid else "wall"
+
+    def joint_torque(self, t, q, f) -> np.ndarray:
+        """J^T f (+ J_w^T moment while a wrench acts) for the force f this contact exerts."""
+        tau = self.point.jacobian(q).T @ f
+        if self.kind == "force" and self.moment is not None and self.spec.start <= t < self.spec.end:
+            tau = tau + self.point.angular_jacobian(q).T @ self.moment
+        return tau
 
     def force(self, t, q, dq) -> np.ndarray:
         """Force on the robot (task coordinates) of a force or a compliant wall."""
@@ -398,8 +427,8 @@ class _Plant:
         tau = np.zeros(self.terms.n)
         for c in self.soft:
             F = c.force(t, q, dq)
-            if F.any():
-                tau = tau + c.point.jacobian(q).T @ F
+            if F.any() or (c.kind == "force" and c.moment is not None):
+                tau = tau + c.joint_torque(t, q, F)
         return tau
 
     def _accel_contacts(self, q, dq, tau, t=0.0):
@@ -745,8 +774,7 @@ def simulate(robot: Union[RobotModel, str], controller: Union[Controller, str], 
                 for j, f in enumerate(plant.forces(tk, q, dq, tau)):
                     FORCES[k, j] = f
                     CPOS[k, j] = resolved[j].point.position(q)
-                    if f.any():
-                        text = text + resolved[j].point.jacobian(q).T @ f
+                    text = text + resolved[j].joint_torque(tk, q, f)
                 TEXT[k] = text
             if obs is not None:
                 obs.update(q, dq, tau)
@@ -949,16 +977,16 @@ def parse_assignments(text: Optional[str], what: str) -> Dict[str, float]:
 
 
 def parse_contact(kind: str, text: str) -> Union[PointForce, Surface]:
-    """A force ('POINT F=fx,fy [from=t0] [to=t1] [at=x,y,z]') or a surface ('POINT normal=nx,ny
+    """A force ('POINT F=fx,fy [M=moment] [from=t0] [to=t1] [at=x,y,z]') or a surface ('POINT normal=nx,ny
     [offset=o] [k=stiffness d=damping] [at=x,y,z]') from text; POINT is a named point, or a body
     with ``at=`` its local position.
 
     >>> parse_contact("force", "link2 F=-10,0 from=1 at=0.4,0,0")
-    PointForce(point=('link2', [0.4, 0.0, 0.0]), force=[-10.0, 0.0], start=1.0, end=inf)
+    PointForce(point=('link2', [0.4, 0.0, 0.0]), force=[-10.0, 0.0], start=1.0, end=inf, moment=None)
     >>> parse_contact("surface", "ee normal=0,1 k=5000")
     Surface(point='ee', normal=[0.0, 1.0], offset=None, stiffness=5000.0, damping=0.0)
     """
-    keys = {"force": ("F", "from", "to", "at"), "surface": ("normal", "offset", "k", "d", "at")}[kind]
+    keys = {"force": ("F", "M", "from", "to", "at"), "surface": ("normal", "offset", "k", "d", "at")}[kind]
     parts = text.split()
     if not parts or "=" in parts[0]:
         raise SimulationError(f"{kind}: start with the point's name, e.g. 'ee {keys[0]}=...'")
@@ -974,7 +1002,7 @@ def parse_contact(kind: str, text: str) -> Union[PointForce, Surface]:
     if kind == "force":
         if "F" not in v:
             raise SimulationError("force: give the force, e.g. F=-10,0 (newtons, world frame)")
-        return PointForce(where, v["F"], v.get("from", [0.0])[0], v.get("to", [math.inf])[0])
+        return PointForce(where, v["F"], v.get("from", [0.0])[0], v.get("to", [math.inf])[0], v.get("M"))
     if "normal" not in v:
         raise SimulationError("surface: give the normal pointing to the free side, e.g. normal=0,1")
     return Surface(where, v["normal"], v["offset"][0] if "offset" in v else None,

@@ -251,7 +251,8 @@ class ControlPanel:
                                                                          "torque), e.g. q2 for partial feedback linearization")
             self.observer = gui.add_text("Collision observer K_I", self.state.get("observer", ""),
                                          hint="run the momentum-based residual with this gain (1/s), e.g. 50")
-            self.force = gui.add_text("Force on a point", "", hint="POINT F=fx,fy [from=t0] [to=t1] [at=x,y,z]: "
+            self.force = gui.add_text("Force on a point", "", hint="POINT F=fx,fy [M=moment] [from=t0] [to=t1] "
+                                      "[at=x,y,z]: "
                                       f"points {', '.join(robot.points) or '-'} or a body with at=")
             self.surface = gui.add_text("Surface", "", hint="POINT normal=nx,ny [offset=o] [k=stiffness d=damping]"
                                                             ": rigid without k (needed by hybrid control)")
