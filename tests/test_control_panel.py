@@ -96,6 +96,7 @@ def test_bad_gain_is_a_message_and_the_page_keeps_working(lab, browser):
         page.get_by_role("button", name="Run", exact=True).click()
         page.get_by_text("unknown gain 'Kq'").first.wait_for(timeout=30000)
         assert panel.result is None
+        wait_until(lambda: "not run: " in panel.status.content, what="the status line")
         typed(page, "Gains", "Kp=64, Kd=16")
         wait_until(lambda: panel.gains.value == "Kp=64, Kd=16", what="the corrected gains")
         page.get_by_role("button", name="Run", exact=True).click()

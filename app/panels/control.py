@@ -384,6 +384,10 @@ class ControlPanel:
         def work(progress):
             try:
                 return simulate(progress=lambda f, m: progress(f, m) if self._alive() else False, **kwargs)
+            except UserError as exc:
+                self.status.content = (f'<div class="r2-label" style="color:#b3261e">not run: '
+                                       f'{html.escape(str(exc))}</div>')
+                raise
             finally:
                 self.run_button.disabled = False
 
@@ -392,8 +396,6 @@ class ControlPanel:
                 self._show_result(res, kwargs)
 
         future = self.session.run_in_background(work, title, on_done=done)
-        if future is not None and future.done() is False and not wait:
-            self.status.content = mathml.label_html("running ...")
         if wait:
             future.result()
         return future
