@@ -208,3 +208,36 @@ def test_adaptive_law_lyapunov_derivative_along_the_closed_loop():
         dV = (V(t + h, sol.sol(t + h)) - V(t - h, sol.sol(t - h))) / (2 * h)
         args = pieces(t, sol.sol(t))[0]
         assert dV == pytest.approx(float(np.asarray(vdot_f(*args)).ravel()[0]), rel=1e-5, abs=1e-7)
+
+
+def test_elastic_joint_pd_with_gravity_compensation_regulates_the_links():
+    """Elastic 2R under gravity: V' = -theta'^T K_D theta' symbolically, dV/dt matches it along a
+    simulation, and the links settle at q_d with the motors at theta_d = q_d + K^-1 g(q_d)."""
+    name = "elastic_2r"
+    robot = load_robot(name)
+    ans = run(name, [{"kind": "elastic_joints"}])
+    kd = [symbol("kd1"), symbol("kd2")]
+    dth = [symbol("dtheta1"), symbol("dtheta2")]
+    assert sp.expand(ans["V_dot"] + kd[0] * dth[0] ** 2 + kd[1] * dth[1] ** 2) == 0
+    values = {p.symbol: p.value for p in robot.parameters.values()}
+    gains = {symbol("kp1"): 300.0, symbol("kp2"): 200.0, symbol("kd1"): 40.0, symbol("kd2"): 25.0,
+             symbol("q1_d"): 0.8, symbol("q2_d"): -0.5}
+    args = list(robot.q) + list(robot.dq)
+    u_f = sp.lambdify(args, ans["u"].subs(gains).subs(values), "numpy")
+    V_f = sp.lambdify(args, sp.Matrix([ans["V"]]).subs(gains).subs(values), "numpy")
+    Vd_f = sp.lambdify(args, sp.Matrix([ans["V_dot"]]).subs(gains).subs(values), "numpy")
+    num = NumericModel(robot)
+
+    def f(t, x):
+        u = np.asarray(u_f(*x), dtype=float).ravel()
+        return np.concatenate([x[4:], num.forward_dynamics(x[:4], x[4:], np.concatenate([[0, 0], u]))])
+
+    sol = solve_ivp(f, (0, 8), np.zeros(8), method="LSODA", rtol=1e-10, atol=1e-11, dense_output=True)
+    for t in (0.2, 0.7, 1.5):
+        h = 1e-5
+        dV = (float(np.asarray(V_f(*sol.sol(t + h))).ravel()[0]) - float(np.asarray(V_f(*sol.sol(t - h))).ravel()[0])) / (2 * h)
+        assert dV == pytest.approx(float(np.asarray(Vd_f(*sol.sol(t))).ravel()[0]), rel=1e-4, abs=1e-6)
+    theta_d = np.array(ans["theta_d"].subs(gains).subs(values), dtype=float).ravel()
+    final = sol.sol(8.0)
+    assert np.allclose(final[:2], [0.8, -0.5], atol=1e-4)
+    assert np.allclose(final[2:4], theta_d, atol=1e-4)

@@ -50,6 +50,11 @@ Task kinds (options -> answers):
   ``g_p``, ``tau_q`` (J^T tau).
 - ``accelerations``: q'' = M^-1 (S u - n) at a state. Options: ``state`` (coordinate or velocity
   -> value), ``inputs`` (actuated coordinate -> value or expression). Answers: ``ddq``.
+- ``elastic_joints``: robots whose motor coordinates (rotor inertia B) drive the links through
+  springs K (theta - q). Answers: ``K``, ``B``, ``link_equations`` (M q'' + c + g + K (q - theta),
+  = 0), ``motor_equations`` (B theta'' + K (theta - q), = u), ``theta_d`` (q_d + K^-1 g(q_d)),
+  ``u`` (motor PD with constant gravity compensation, gains kp<i>, kd<i>), ``V`` and ``V_dot``
+  (Lyapunov function and its derivative along the closed loop, from the model itself).
 
 >>> from app.core.expressions import symbol
 >>> q2 = symbol("q2")
@@ -730,3 +735,96 @@ def accelerations_task(ctx, spec):
     ctx.step("Accelerations", rf"\ddot q = M^{{-1}}(q)\left(\tau - n(q,\dot q)\right) = {m.L(ddq)}",
              f"Forward dynamics at {where}.", bodies=[b.name for b in m.robot.bodies])
     ctx.answer("ddq", ddq)
+
+
+# ====================================================================== elastic joints
+def _elastic_pairs(m: Model):
+    """(link index, motor index, stiffness) for every spring K (theta - q) between a motor
+    coordinate (one with a rotor inertia) and a link coordinate."""
+    motors = {m.coords.index(c) for c in m.robot.motor_inertias}
+    pairs = []
+    for spring in m.robot.springs:
+        if spring.expr is None:
+            continue
+        e = sp.expand(spring.expr - spring.rest)
+        lin = [i for i in range(len(m.coords)) if e.coeff(m.q[i]) != 0]
+        mot = [i for i in lin if i in motors]
+        link = [i for i in lin if i not in motors]
+        if len(mot) == 1 and len(link) == 1 and sp.expand(e - (m.q[mot[0]] - m.q[link[0]])) == 0:
+            pairs.append((link[0], mot[0], spring.stiffness))
+    return pairs
+
+
+@task("elastic_joints")
+def elastic_joints_task(ctx, spec):
+    """Elastic-joint robots: link and motor equations, and the motor PD law with constant gravity
+    compensation (see the module docstring)."""
+    m = Model(ctx)
+    pairs = _elastic_pairs(m)
+    if not pairs:
+        raise ExerciseError("elastic_joints: the robot has no elastic joint (a spring K (theta - q) between "
+                            "a motor coordinate with rotor inertia and a link coordinate)")
+    link = [p[0] for p in pairs]
+    mot = [p[1] for p in pairs]
+    Kvec = [p[2] for p in pairs]
+    qL = sp.Matrix([m.q[i] for i in link])
+    th = sp.Matrix([m.q[i] for i in mot])
+    dth = sp.Matrix([m.dq[i] for i in mot])
+    K = sp.diag(*Kvec)
+    B = sp.diag(*[m.robot.motor_inertias[m.coords[i]] for i in mot])
+    lhs = m.M * m.ddq + m.n
+    link_eq = m.tidy_matrix(lhs.extract(link, [0]))
+    motor_eq = m.tidy_matrix(lhs.extract(mot, [0]))
+    g_link = (m.dyn.g).extract(link, [0])
+    names = [m.coords[i] for i in link]
+    qd = sp.Matrix([symbol(f"{c}_d") for c in names])
+    g_d = g_link.subs(dict(zip(qL, qd)), simultaneous=True)
+    theta_d = m.tidy_matrix(qd + K.inv() * g_d)
+    idx = [str(k + 1) for k in range(len(link))]
+    kp = sp.diag(*[symbol(f"kp{i}") for i in idx])
+    kd = sp.diag(*[symbol(f"kd{i}") for i in idx])
+    u = m.tidy_matrix(kp * (theta_d - th) - kd * dth + g_d)
+    # V = T + U_g + U_K + 1/2 (theta_d - theta)^T K_P (theta_d - theta) - theta^T g(q_d): its
+    # derivative along the closed loop, from the model rows (M q'' = S u - n) without any inverse
+    n = len(m.coords)
+    Mdot = sp.zeros(n, n)
+    for k in range(n):
+        Mdot += m.M.diff(m.q[k]) * m.dq[k]
+    S = sp.zeros(n, len(mot))
+    for k, i in enumerate(mot):
+        S[i, k] = 1
+    U = sum(m.dyn.potential.values(), sp.Integer(0))
+    T = sum(m.dyn.kinetic.values(), sp.Integer(0))
+    V = T + U + ((theta_d - th).T * kp * (theta_d - th))[0] / 2 - (th.T * g_d)[0]
+    gradU = sp.Matrix([sp.diff(U, qk) for qk in m.q])
+    V_dot = (m.dq.T * (S * u - m.n) + m.dq.T * Mdot * m.dq / 2 + gradU.T * m.dq)[0]
+    V_dot += (-(dth.T * kp * (theta_d - th)) - dth.T * g_d)[0]
+    V_dot = m.tidy(sp.expand(V_dot))
+    L = lambda x: latex_law_elastic(m, x)
+    ctx.step("Link and motor equations",
+             rf"M(q)\ddot q + c(q,\dot q) + g(q) + K(q - \theta) = 0:\ {m.L(link_eq)} = 0,\quad "
+             rf"B\ddot\theta + K(\theta - q) = u:\ {m.L(motor_eq)} = u",
+             "Reduced model of elastic joints: the motors drive the links only through the springs.",
+             bodies=m.bodies_of(link), joints=m.bodies_of(link))
+    ctx.step("Motor reference", rf"\theta_d = q_d + K^{{-1}} g(q_d) = {L(theta_d)}",
+             "At the desired rest configuration the springs must carry the gravity load.")
+    ctx.step("Motor PD with constant gravity compensation",
+             rf"u = K_P(\theta_d - \theta) - K_D\dot\theta + g(q_d) = {L(u)}",
+             "Only motor positions and velocities are fed back; with K and K_P large enough with respect "
+             "to the gravity gradient bound, (q_d, theta_d) is the unique, globally asymptotically "
+             "stable equilibrium.")
+    ctx.step("Lyapunov function", rf"V = T + U + \tfrac12(\theta_d - \theta)^T K_P(\theta_d - \theta) - \theta^T g(q_d),"
+             rf"\quad \dot V = {L(V_dot)} \le 0",
+             "The model's energy balance leaves only the motor damping; LaSalle concludes.")
+    ctx.answer("K", K)
+    ctx.answer("B", B)
+    ctx.answer("link_equations", link_eq)
+    ctx.answer("motor_equations", motor_eq)
+    ctx.answer("theta_d", theta_d)
+    ctx.answer("u", u)
+    ctx.answer("V", m.tidy(sp.expand(V)))
+    ctx.answer("V_dot", V_dot)
+
+
+def latex_law_elastic(m: Model, expr) -> str:
+    return to_latex(expr, m.coords + [f"{c}_d" for c in m.coords])
