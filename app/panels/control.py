@@ -202,6 +202,7 @@ class ControlPanel:
         self.true_coefficients = None
         self._replay = {"t": 0.0, "playing": False, "speed": 1.0}
         self._replay_lock = threading.Lock()
+        self._wake = threading.Event()           # set when the replay should run
         self._result_widgets: List = []
         self._plots: List = []
         self._overlays = set()           # names of this panel's scene overlays
@@ -532,6 +533,7 @@ class ControlPanel:
                 if self._replay["t"] >= float(self.result.t[-1]) - 1e-9:
                     self._replay["t"] = 0.0
                 self._replay["playing"] = True
+                self._wake.set()
             elif value.endswith("Pause"):
                 self._replay["playing"] = False
             else:
@@ -555,8 +557,17 @@ class ControlPanel:
             self._replay["playing"] = False
 
     def _replay_loop(self) -> None:
+        """Advance the replay at FPS frames per second while playing; idle (no polling) otherwise."""
         last = time.monotonic()
         while self._alive():
+            with self._replay_lock:
+                idle = not self._replay["playing"]
+                if idle:
+                    self._wake.clear()
+            if idle:
+                self._wake.wait(timeout=2.0)          # woken by Play; checks now and then for a rebuild
+                last = time.monotonic()
+                continue
             time.sleep(1.0 / FPS)
             now = time.monotonic()
             with self._replay_lock:
