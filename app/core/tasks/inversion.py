@@ -1,0 +1,119 @@
+"""Higher-order inversion of differential kinematics, and task velocities of joint motions.
+Values follow the conventions of ``kinematic`` (TaskData).
+
+``inversion``: joint acceleration (``order: 2``, default) or jerk (``order: 3``) realizing a task
+  acceleration or jerk ``task`` for the symbolic Jacobian of an earlier ``jacobian`` task, at its
+  configuration, with joint velocity ``joint_velocity`` (and ``joint_acceleration`` for order 3):
+      order 2:  J q'' = p'' - J' q'               (drift n = J' q')
+      order 3:  J q''' = p''' - 2 J' q'' - J'' q'  (drift n = 2 J' q'' + J'' q')
+  solved as the minimizer of 1/2 |x - x_0|^2_W among the solutions: x = J_W^# (target - n) +
+  (I - J_W^# J) x_0. The preferred x_0 is ``preferred`` (a vector) or, with ``damping`` K (number,
+  list or matrix), -K times the joint velocity (order 2) or acceleration (order 3), e.g. 1/T_c for
+  the smallest joint velocity after a sampling time T_c. ``weights``: W (default identity).
+  Answers ``<name>`` (default ddq or dddq), ``<name>_drift``, ``<name>_target`` (task minus
+  drift), ``<name>_preferred``, ``<name>_error`` (task residual), ``<name>_kkt_gap`` (distance from
+  the minimizer computed independently from the optimality (KKT) conditions, 0 when J has full row
+  rank).
+``task_velocity``: ``jacobian`` (name or matrix) times ``velocity``: answer ``<name>`` (default v).
+"""
+from __future__ import annotations
+
+import numpy as np
+import sympy as sp
+
+from .. import jacobians as jac
+from .. import redundancy as red
+from ..latex import mat, num, vec
+from . import task
+from .kinematic import data
+
+
+def _time_derivative(J: sp.Matrix, robot) -> sp.Matrix:
+    """d/dt of a matrix of q and q' (symbols dq, ddq of the robot)."""
+    out = sp.zeros(*J.shape)
+    for q, dq, ddq in zip(robot.q, robot.dq, robot.ddq):
+        out += J.diff(q) * dq + J.diff(dq) * ddq
+    return out
+
+
+@task("inversion")
+def inversion_task(ctx, spec):
+    """Second-order (acceleration) or jerk-level inversion with a preferred null-space motion."""
+    d = data(ctx)
+    robot = d.robot
+    order = int(spec.get("order", 2))
+    if order not in (2, 3):
+        raise d._fail("inversion.order: 2 (accelerations) or 3 (jerks)")
+    name = spec.get("name", "ddq" if order == 2 else "dddq")
+    ref = spec.get("jacobian", "J")
+    obj = d.store.get(ref) if isinstance(ref, str) else None
+    if obj is None or obj["sym"] is None or obj["q"] is None:
+        raise d._fail("inversion.jacobian: name an earlier jacobian task defined on the robot (its derivatives are needed)")
+    J_sym, q = obj["sym"], obj["q"]
+    n = robot.n
+    dq = d.array(spec["joint_velocity"], "joint_velocity").reshape(-1)
+    ddq = d.array(spec["joint_acceleration"], "joint_acceleration").reshape(-1) if order == 3 else np.zeros(n)
+    if dq.size != n or ddq.size != n:
+        raise d._fail(f"inversion: joint velocity/acceleration need {n} values")
+    Jdot = _time_derivative(J_sym, robot)
+    drift_sym = Jdot * sp.Matrix(robot.dq) if order == 2 else 2 * Jdot * sp.Matrix(robot.ddq) + _time_derivative(Jdot, robot) * sp.Matrix(robot.dq)
+    values = {s: float(v) for s, v in zip(robot.dq, dq)}
+    values.update({s: float(v) for s, v in zip(robot.ddq, ddq)})
+    drift = np.asarray(jac.evaluate(robot, d.substitute(drift_sym.xreplace(values)), q, d.params), float).reshape(-1)
+    J = obj["num"]
+    m = J.shape[0]
+    p = d.array(spec["task"], "task").reshape(-1)
+    if p.size != m:
+        raise d._fail(f"inversion.task: expected {m} values")
+    target = p - drift
+    lower = dq if order == 2 else ddq
+    if "preferred" in spec:
+        x0 = d.array(spec["preferred"], "preferred").reshape(-1)
+        how = "Given preferred motion."
+    elif "damping" in spec:
+        K = d.array(spec["damping"], "damping")
+        K = np.diag(K * np.ones(n)) if K.ndim < 2 else K
+        x0 = -K @ lower
+        how = f"x_0 = -K {'q_dot' if order == 2 else 'q_ddot'}: damps the joint motion in the null space."
+    else:
+        x0 = np.zeros(n)
+        how = "Minimum norm."
+    W = red.weighted_matrix(d.array(spec["weights"], "weights"), n) if "weights" in spec else np.eye(n)
+    sym = r"\ddot q" if order == 2 else r"\dddot q"
+    drift_tex = r"\dot J \dot q" if order == 2 else r"2 \dot J \ddot q + \ddot J \dot q"
+    p_tex = r"\ddot p" if order == 2 else r"\dddot p"
+    ctx.step("Drift term", rf"n = {drift_tex} = {vec(drift)},\quad {p_tex} - n = {vec(target)}",
+             f"Differentiating p' = J q' {'once' if order == 2 else 'twice'} more; evaluated at q' = {vec(dq)}"
+             + (f", q'' = {vec(ddq)}" if order == 3 else "") + ".",
+             configuration={c: float(v) for c, v in zip(robot.coordinates, q)})
+    res = red.resolve(J, target, weights=W if "weights" in spec else None, preferred=x0, symbol=sym, task_symbol="t")
+    ctx.steps.extend(res.steps)
+    x = res.dq
+    # independent check: KKT conditions of min 1/2 |x - x0|_W^2 s.t. J x = target
+    kkt = np.block([[W, J.T], [J, np.zeros((m, m))]])
+    gap = np.nan
+    if np.linalg.matrix_rank(J) == m:
+        sol = np.linalg.solve(kkt, np.concatenate([W @ x0, target]))
+        gap = float(np.linalg.norm(sol[:n] - x))
+        ctx.step("Optimality check", rf"\begin{{pmatrix}} W & J^T \\ J & 0 \end{{pmatrix}} \begin{{pmatrix}} x \\ \lambda \end{{pmatrix}} = \begin{{pmatrix}} W x_0 \\ t \end{{pmatrix}}:\ \|x - x_{{KKT}}\| = {num(gap, 12)}",
+                 how + " The closed form is the constrained minimizer.")
+    ctx.answer(name, x)
+    ctx.answer(f"{name}_drift", drift)
+    ctx.answer(f"{name}_target", target)
+    ctx.answer(f"{name}_preferred", x0)
+    ctx.answer(f"{name}_error", res.error)
+    ctx.answer(f"{name}_kkt_gap", gap)
+
+
+@task("task_velocity")
+def task_velocity_task(ctx, spec):
+    """v = J q' for a Jacobian and a joint velocity (e.g. the velocity of a second point)."""
+    d = data(ctx)
+    name = spec.get("name", "v")
+    J = d.jacobian(spec.get("jacobian", "J"))
+    dq = d.array(spec["velocity"], "velocity").reshape(-1)
+    if dq.size != J.shape[1]:
+        raise d._fail(f"task_velocity.velocity: expected {J.shape[1]} values")
+    v = J @ dq
+    ctx.step(f"Task velocity {name}", rf"{name} = J \dot q = {mat(J)} {vec(dq)} = {vec(v)}", "")
+    ctx.answer(name, v)
