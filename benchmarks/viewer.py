@@ -8,8 +8,10 @@ robots (cached and cold), and pose updates while a slider is dragged.
   derived in this process (cached) and with empty memory and disk caches (cold: derivation,
   compilation and drawing from scratch).
 - drag: the mouse drags the q1 slider for 3 s; counted are the slider updates the server
-  receives, the poses it applies, and the distinct poses the browser renders per second; plus
-  the rate at which the server alone can push poses (no browser in the loop).
+  receives, the poses it applies, and the distinct poses the browser renders per second. In
+  software WebGL the browser itself is the bottleneck (it renders a frame per mouse move), so a
+  synthetic drag feeds 1000 slider updates per second straight into the session's handler with
+  the browser attached; and the server alone pushes poses as fast as it can (its capacity).
 
 Run: ``python -m benchmarks.viewer`` (needs /usr/bin/chromium). Numbers go to docs/viewer.md.
 """
@@ -143,6 +145,31 @@ def drag(browser, seconds=3.0):
     page.mouse.up()
     page.wait_for_timeout(300)
     rendered = page.evaluate("() => { window.__sampling = false; return window.__poses.size; }")
+    mouse_updates, mouse_poses = counts["updates"], counts["poses"]
+    SceneView.set_pose = original_pose
+    # a synthetic drag at 1 kHz: slider updates straight into the session's handler (as viser
+    # delivers them), with the browser attached; the coalescer applies the latest value each time
+    SceneView.set_pose = pose
+    counts["poses"] = 0
+    slider = session._sliders[0]
+
+    class Event:
+        client, target = object(), slider
+
+    page.evaluate("() => { window.__poses = new Set(); window.__sampling = true; }")
+    page.evaluate("""() => { const node = () => window.__viserMutable.nodeRefFromName['/robot/link2'];
+        function f() { const n = node(); if (n) window.__poses.add(n.position.toArray().join(','));
+                       if (window.__sampling) requestAnimationFrame(f); }
+        requestAnimationFrame(f); }""")
+    sent, t2 = 0, time.perf_counter()
+    while time.perf_counter() - t2 < seconds:
+        slider._impl.value = float(2.5 * np.sin(sent / 200))
+        session._slider_moved(Event())
+        sent += 1
+        time.sleep(0.001)
+    synthetic = time.perf_counter() - t2
+    page.wait_for_timeout(300)
+    synthetic_rendered = page.evaluate("() => { window.__sampling = false; return window.__poses.size; }")
     SceneView.set_pose = original_pose
     # the server alone: how many poses per second can it push to this tab
     n, t1 = 0, time.perf_counter()
@@ -152,8 +179,11 @@ def drag(browser, seconds=3.0):
     push = n / (time.perf_counter() - t1)
     page.context.close()
     lab.stop()
-    return {"mouse moves/s": k / elapsed, "slider updates/s": counts["updates"] / elapsed,
-            "poses applied/s": counts["poses"] / elapsed, "poses rendered/s": rendered / elapsed,
+    return {"mouse moves/s": k / elapsed, "slider updates/s": mouse_updates / elapsed,
+            "poses applied/s": mouse_poses / elapsed, "poses rendered/s": rendered / elapsed,
+            "synthetic slider updates/s": sent / synthetic,
+            "synthetic poses applied/s": counts["poses"] / synthetic,
+            "synthetic poses rendered/s": synthetic_rendered / synthetic,
             "server push capacity poses/s": push}
 
 

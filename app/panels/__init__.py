@@ -7,8 +7,9 @@ A panel module defines ``TITLE`` (the tab label), ``ORDER`` (tabs sorted by it) 
 it then follows robot changes through ``session.on_robot_change``). Modules whose name starts
 with ``_`` are skipped. docs/panels.md explains the ``Session`` a panel receives.
 
->>> [p.title for p in discover_panels()][:2]
-['Model', 'Steps']
+>>> titles = [p.title for p in discover_panels()]
+>>> titles.index("Model") < titles.index("Steps") < titles.index("Robot")
+True
 """
 from __future__ import annotations
 

@@ -2,7 +2,7 @@
 linear parametrization, typeset, each with its numeric value at the current q, q' and parameters."""
 from __future__ import annotations
 
-from typing import Callable, List, Tuple
+from typing import Callable, Dict, List, Tuple
 
 import numpy as np
 import sympy as sp
@@ -11,6 +11,15 @@ from app.viewer import mathml
 
 TITLE = "Model"
 ORDER = 10
+
+_HTML: Dict[tuple, str] = {}     # typeset symbolic sections, per robot file: switching back is instant
+
+
+def _cached(key: tuple, make: Callable[[], str]) -> str:
+    html = _HTML.get(key)
+    if html is None:
+        html = _HTML[key] = make()
+    return html
 
 
 def build(session) -> None:
@@ -26,12 +35,15 @@ def build(session) -> None:
     def blocks(name, matrix, entry, symmetric=False):
         return mathml.matrix_latex_blocks(name, matrix, coords, entry, symmetric=symmetric, short_trig=short)
 
-    def section(title, latex_blocks, numeric=None, expanded=True, note=""):
+    def section(title, make_blocks, numeric=None, expanded=True, note=""):
+        """A folder with the typeset symbolic term (``make_blocks()`` gives its LaTeX blocks) and
+        a live numeric value."""
+        html = _cached((robot.content_hash, title, short), lambda: mathml.blocks_html(make_blocks()))
         folder = gui.add_folder(title, expand_by_default=expanded)
         with folder:
             if note:
                 gui.add_html(mathml.label_html(note))
-            gui.add_html(mathml.blocks_html(latex_blocks))
+            gui.add_html(html)
             if numeric is not None:
                 handle = gui.add_html("")
                 updaters.append((handle, numeric))
@@ -60,22 +72,25 @@ def build(session) -> None:
     def value(name_latex, fn):
         return lambda: mathml.math_html(f"{name_latex} = {mathml.numeric_latex(fn())}", css_class="r2-num")
 
-    section("Inertia matrix M(q)", blocks("M(q)", dyn.M, "m", symmetric=True),
+    section("Inertia matrix M(q)", lambda: blocks("M(q)", dyn.M, "m", symmetric=True),
             value("M", lambda: num.M(session.q)))
-    section("Coriolis and centrifugal terms c(q, q̇)", blocks(r"c(q,\dot q)", dyn.c, "c"),
+    section("Coriolis and centrifugal terms c(q, q̇)", lambda: blocks(r"c(q,\dot q)", dyn.c, "c"),
             value("c", lambda: num.c(session.q, dq_state["dq"])))
-    section("Factorization C(q, q̇) (Christoffel)", blocks(r"C(q,\dot q)", dyn.C, "c"),
+    section("Factorization C(q, q̇) (Christoffel)", lambda: blocks(r"C(q,\dot q)", dyn.C, "c"),
             value("C", lambda: num.C(session.q, dq_state["dq"])), expanded=False,
             note="c = C(q, q̇) q̇ with C from the Christoffel symbols: Ṁ − 2C is skew-symmetric.")
-    section("Gravity g(q)", blocks("g(q)", dyn.g, "g"), value("g", lambda: num.g(session.q)))
+    section("Gravity g(q)", lambda: blocks("g(q)", dyn.g, "g"), value("g", lambda: num.g(session.q)))
     if any(e != 0 for e in dyn.spring):
-        section("Springs k(q)", blocks("k(q)", dyn.spring, "k"), value("k", lambda: num.spring(session.q)))
+        section("Springs k(q)", lambda: blocks("k(q)", dyn.spring, "k"), value("k", lambda: num.spring(session.q)))
     if any(e != 0 for e in dyn.friction):
-        section("Friction", blocks(r"\tau_f", dyn.friction, r"\tau_f"),
+        section("Friction", lambda: blocks(r"\tau_f", dyn.friction, r"\tau_f"),
                 value(r"\tau_f", lambda: num.friction(dq_state["dq"])))
-    christoffel = []
-    for i, Ci in enumerate(dyn.christoffel):
-        christoffel += blocks(f"C_{{{i + 1}}}(q)", Ci, f"c_{{{i + 1},}}", symmetric=True)
+    def christoffel():
+        out = []
+        for i, Ci in enumerate(dyn.christoffel):
+            out += blocks(f"C_{{{i + 1}}}(q)", Ci, f"c_{{{i + 1},#}}", symmetric=True)
+        return out
+
     section("Christoffel matrices", christoffel, expanded=False,
             note="c_i = q̇ᵀ C_i(q) q̇, with C_i = ½ (∂m_i/∂q + (∂m_i/∂q)ᵀ − ∂M/∂q_i).")
 
@@ -85,10 +100,10 @@ def build(session) -> None:
     a_fn = sp.lambdify([symbols], a_vec, "numpy")
     known = ", ".join(par.known) or "none"
     section(f"Linear parametrization Y a ({par.count} coefficients)",
-            blocks(r"Y(q,\dot q,\ddot q)", par.Y, "y") + blocks("a", a_vec, "a"),
+            lambda: blocks(r"Y(q,\dot q,\ddot q)", par.Y, "y") + blocks("a", a_vec, "a"),
             value("a", lambda: np.asarray(a_fn([session.params[k] for k in robot.parameters]), float).ravel()),
             expanded=False, note=f"τ = Y a with a minimal set of dynamic coefficients (known data: {known}).")
-    section("Adaptive regressor Y(q, q̇, q̇r, q̈r)", blocks(r"Y_r", par.Y_ref, "y"), expanded=False,
+    section("Adaptive regressor Y(q, q̇, q̇r, q̈r)", lambda: blocks(r"Y_r", par.Y_ref, "y"), expanded=False,
             note="Y_r a = M q̈r + C(q, q̇) q̇r + g (+ springs, friction): the Slotine-Li regressor.")
 
     def refresh(*_):

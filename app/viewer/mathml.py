@@ -212,7 +212,7 @@ def matrix_latex_blocks(name: str, matrix: sp.Matrix, coordinates: Sequence[str]
                         short_trig: bool = True) -> List[str]:
     """LaTeX blocks showing ``name = matrix``: one block if it fits the width, otherwise one block
     per (non-zero) entry ``entry_name_{ij} = ...`` (upper triangle when symmetric), long entries
-    broken over lines.
+    broken over lines. A ``#`` in ``entry_name`` marks where the index goes (``c_{1,#}``).
 
     >>> m = sp.Matrix([[sp.Symbol("a"), 0], [0, sp.Symbol("b")]])
     >>> matrix_latex_blocks("M", m, [], "m")
@@ -230,7 +230,8 @@ def matrix_latex_blocks(name: str, matrix: sp.Matrix, coordinates: Sequence[str]
             if matrix[i, j] == 0:
                 continue
             index = f"{i + 1}{j + 1}" if cols > 1 and rows > 1 else f"{(i if cols == 1 else j) + 1}"
-            blocks.append(sum_lines(f"{entry_name}_{{{index}}}", matrix[i, j], coordinates, width_em, short_trig))
+            label = entry_name.replace("#", index) if "#" in entry_name else f"{entry_name}_{{{index}}}"
+            blocks.append(sum_lines(label, matrix[i, j], coordinates, width_em, short_trig))
     if not blocks:
         return [f"{name} = 0"]
     return blocks

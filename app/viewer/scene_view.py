@@ -53,6 +53,7 @@ class SceneView:
         # flat textbook look, and cheap frames in software WebGL: no shadows, no environment map
         self.scene.configure_default_lights(enabled=True, cast_shadow=False)
         self.scene.configure_environment_map(hdri=None)
+        self.scene.add_light_ambient("/lights/ambient", intensity=0.9)     # the environment map's share
 
     # ------------------------------------------------------------------ robot
     def show_robot(self, drawing: RobotDrawing, q) -> None:

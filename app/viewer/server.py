@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import io
 import threading
+import traceback
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Dict, List, Optional, Tuple
@@ -102,7 +103,13 @@ class LabServer:
 
     # ------------------------------------------------------------------ sessions
     def _connect(self, client) -> None:
-        session = Session(self, client)
+        try:
+            session = Session(self, client)
+        except Exception as exc:       # a bug must not leave a blank page without a word
+            traceback.print_exc()
+            client.add_notification("The page could not be built", f"{type(exc).__name__}: {exc}",
+                                    color="red", with_close_button=True)
+            return
         self.sessions[client.client_id] = session
         for hook in list(self.session_hooks):
             hook(session)

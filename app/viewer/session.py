@@ -297,6 +297,9 @@ class Session:
             generation = self.generation
             self.ready.clear()
             self.robot, self.drawing, self.robot_name = robot, drawing, name
+            for spec in self._panel_specs:     # the old robot's panels stop listening now
+                if spec.rebuild:
+                    self._drop_listeners(spec.name)
             self.dynamics, self.numeric = None, None
             self.params = robot.parameter_values()
             self.q = default_q(robot)
@@ -535,6 +538,8 @@ class Session:
 
     def _fire(self, kind: str, value) -> None:
         with self._lock:
+            if kind != "robot" and (self.numeric is None or self.closed):   # a robot is loading
+                return
             callbacks = list(self._listeners[kind])
         for owner, cb in callbacks:
             try:
