@@ -2,7 +2,8 @@
 
 Data conventions shared by the tasks of this module and of ``redundancy``, ``planning`` and
 ``contact`` (see ``TaskData``): a value in a task spec is a number, a list, an expression string
-("pi/6", "l1/2"), the name of an entry of ``given`` or the name of an earlier answer. A
+("pi/6", "l1/2"), the name of an entry of ``given`` or the name of an earlier answer; expressions
+may combine vectors element by element ("Pd - J_position", "0.5*grad"). A
 configuration ``q`` is a list, a given name (``qa: [0, pi/2, pi/2, 0]``) or, by default, the
 coordinates found in ``given`` (q1, q2, ...) completed by the exercise's ``configuration``.
 Robot parameters take the robot file's values, overridden by ``given``.
@@ -99,10 +100,35 @@ class TaskData:
                 return self.array(self.ctx.answers[key], where, _depth + 1, q)
             if key in self.ctx.given:
                 return self.array(self.ctx.given[key], key, _depth + 1, q)
-            return np.array(self.evaluate(key, where, q, _depth + 1))
+            return self._vector_expression(key, where, q, _depth + 1)
         if isinstance(value, sp.Basic):
             return np.array(float(value))
         raise self._fail(f"{where}: cannot read {value!r} as a number")
+
+    def _vector_expression(self, text: str, where: str, q, _depth: int) -> np.ndarray:
+        """An expression whose names may be vectors or matrices (given entries, answers): evaluated
+        element by element, e.g. ``Pd - J_position`` or ``0.5*grad``."""
+        expr = self.expression(text, where)
+        names = [s.name for s in expr.free_symbols]
+        if not any(n in self.ctx.answers or (n in self.ctx.given and isinstance(self.ctx.given[n], list)) for n in names):
+            return np.array(self.evaluate(text, where, q, _depth))
+        syms = sorted(expr.free_symbols, key=lambda s: s.name)
+        values = []
+        coords = dict(zip(self.robot.coordinates, q)) if q is not None else {}
+        params = self.robot.parameter_values()
+        for s in syms:
+            if s.name in coords:
+                values.append(float(coords[s.name]))
+            elif s.name in self.ctx.answers or s.name in self.ctx.given:
+                values.append(self.array(s.name, where, _depth + 1, q))
+            elif s.name in params:
+                values.append(float(params[s.name]))
+            else:
+                raise self._fail(f"{where}: no value for {s.name} in {text!r}")
+        try:
+            return np.asarray(sp.lambdify(syms, expr, "numpy")(*values), dtype=float)
+        except (ValueError, TypeError) as exc:
+            raise self._fail(f"{where}: cannot combine the values of {text!r} ({exc})") from None
 
     def scalars(self) -> Dict[str, float]:
         """Every given scalar and robot parameter, as numbers (for expressions)."""

@@ -5,14 +5,16 @@ weighted-pseudoinverse identities. Values follow the conventions of ``kinematic`
 ``pseudoinverse``: ``jacobian`` (name of a jacobian task or a matrix), ``task`` (vector);
   options ``weights`` (diagonal list, matrix, matrix of expressions of q, or ``inertia`` for
   the robot's M(q)), ``damping`` (mu of damped least squares), ``gradient`` ({objective:
-  expression of q} or {joint_range: {lower, upper}}, with ``alpha`` (default 1) and ``maximize``
-  (default false): q'_0 = -/+ alpha grad H projected in the null space), ``preferred`` (q'_0),
+  expression of q}, {joint_range: {lower, upper}}, {potential: true} (gravity potential energy,
+  gradient g(q)) or {clearance: {point, center, radius}} (distance of a point from a circular or
+  spherical obstacle), with ``alpha`` (default 1) and ``maximize`` (default false): q'_0 = -/+ alpha grad H projected in the null space), ``preferred`` (q'_0),
   ``fixed`` ({joint index from 1: value}), ``bounds`` ({max} or {lower, upper}: smallest task
   scaling keeping the null-space term), ``check`` ({jacobian name: task vector}: errors on other
   tasks), ``q``.
   Answers: ``<name>``, ``<name>_error``, ``<name>_error_norm``, ``<name>_norm``, ``<name>_pinv``, ``<name>_task``,
   ``<name>_null``, ``<name>_projector``, ``<name>_gradient``, ``<name>_objective`` (H at q),
   ``<name>_cost`` (1/2 q'^T W q', with W the weights or the option ``cost``), ``<name>_half_norm2``,
+  ``<name>_clearance_point``, ``<name>_closest_point``, ``<name>_clearance_vector`` (clearance),
   ``<name>_scale``/``<name>_unscaled`` (with bounds), ``<name>_error_<J>`` and
   ``<name>_error_<J>_norm`` (checks).
 ``task_priority``: ``tasks`` [{jacobian, task}, ...] by decreasing priority. Answers ``<name>``,
@@ -50,9 +52,29 @@ def _bounds(d, spec, n):
     return d.bounds(spec, n, "bounds") if spec is not None else (None, None)
 
 
-def _gradient(d, spec, q, n):
-    """(grad H at q, latex of H) from {objective: expr} or {joint_range: {lower, upper}}."""
+def _gradient(d, spec, q, n, extra=None):
+    """(grad H at q, latex of H, H at q) from {objective: expr}, {joint_range: {lower, upper}},
+    {potential: true} (gravity potential, grad = g(q)) or {clearance: {point, center, radius}}
+    (H = |p(q) - center| - radius, grad = J^T (p - center) / |p - center|; ``extra`` receives the
+    point, the closest obstacle point and the clearance vector H (p - center) / |p - center|)."""
     robot = d.robot
+    if spec.get("potential"):
+        g = np.asarray(d.ctx.numeric.g(q), float).reshape(-1)
+        return g, r"H = U_g(q),\ \nabla_q H = g(q)", float(d.ctx.numeric.energy(q, np.zeros(n))[1])
+    if "clearance" in spec:
+        from .contact import _point_jacobian
+        c = spec["clearance"]
+        J, p = _point_jacobian(d, c.get("point", "ee"), q)
+        center = d.array(c["center"], "gradient.clearance.center").reshape(-1)
+        radius = d.number(c.get("radius", 0.0), "gradient.clearance.radius")
+        diff = p - center
+        dist = float(np.linalg.norm(diff))
+        if dist <= 1e-12:
+            raise d._fail("gradient.clearance: the point is at the obstacle centre; the clearance has no gradient")
+        H = dist - radius
+        if extra is not None:
+            extra.update(clearance_point=p, closest_point=center + radius * diff / dist, clearance_vector=H * diff / dist)
+        return J.T @ diff / dist, r"H = \|p(q) - c\| - r,\ \nabla_q H = J^T(q)\,\frac{p - c}{\|p - c\|}", H
     if "objective" in spec:
         H = d.expression(spec["objective"], "gradient.objective")
         subs = {sp.Symbol(k, real=True): v for k, v in d.scalars().items() if k not in robot.coordinates}
@@ -75,7 +97,7 @@ def _gradient(d, spec, q, n):
         g = (q - mid) / (n * width ** 2)
         value = float(np.sum(((q - mid) / width) ** 2) / (2 * n))
         return g, r"H_{range} = \frac{1}{2n}\sum_i \left(\frac{q_i - \bar q_i}{q_{M,i} - q_{m,i}}\right)^2", value
-    raise d._fail("gradient: expected {objective: expression} or {joint_range: {lower, upper}}")
+    raise d._fail("gradient: expected {objective: expression}, {joint_range: {lower, upper}}, {potential: true} or {clearance: {point, center, radius}}")
 
 
 def _weights(d, spec, q, n):
@@ -103,7 +125,10 @@ def pseudoinverse_task(ctx, spec):
     grad = None
     if "gradient" in spec:
         gspec = spec["gradient"]
-        grad, H_tex, H_value = _gradient(d, gspec, q, n)
+        extra = {}
+        grad, H_tex, H_value = _gradient(d, gspec, q, n, extra)
+        for key, value in extra.items():
+            ctx.answer(f"{name}_{key}", value)
         alpha = d.number(gspec.get("alpha", 1.0), "gradient.alpha")
         sign = 1.0 if gspec.get("maximize") else -1.0
         preferred = sign * alpha * grad
