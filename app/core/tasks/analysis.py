@@ -324,12 +324,37 @@ class _EquilibriumSolver:
         self.angles = set(angles)
         self.log = log          # callback(kind, equation, variable, values)
         self.counter = itertools.count()
+        self.opaque: Dict[sp.Symbol, sp.Expr] = {}   # placeholder -> sin/cos of parameters only
+
+    def hide(self, expr) -> sp.Expr:
+        """Replace sines and cosines of parameters (e.g. sin(alpha)) by placeholder symbols, so
+        that only the unknowns count as angles."""
+        expr = sp.sympify(expr)
+        unknowns = set(self.unknowns)
+        mixed = {f: sp.expand_trig(f) for f in expr.atoms(sp.sin, sp.cos)
+                 if f.free_symbols & unknowns and f.free_symbols - unknowns}
+        expr = sp.expand(expr.xreplace(mixed)) if mixed else expr
+        repl = {}
+        for f in expr.atoms(sp.sin, sp.cos):
+            if not f.free_symbols & set(self.unknowns):
+                for ph, orig in self.opaque.items():
+                    if orig == f:
+                        repl[f] = ph
+                        break
+                else:
+                    ph = sp.Dummy(f"trig{len(self.opaque)}")
+                    self.opaque[ph] = f
+                    repl[f] = ph
+        return expr.xreplace(repl)
+
+    def reveal(self, expr) -> sp.Expr:
+        return sp.sympify(expr).xreplace(self.opaque)
 
     def solve(self, equations: List[Tuple[int, sp.Expr]], assigned: Dict[sp.Symbol, sp.Expr]) -> List[Dict]:
         """Solutions of the (row index, expression) equations given the values ``assigned``."""
         eqs = []
         for row, e in equations:
-            tp = TrigPoly.from_expr(sp.expand(e)).expand()
+            tp = TrigPoly.from_expr(sp.expand(self.hide(e))).expand()
             if tp.is_zero():
                 continue
             if not self._unknowns_in(tp):
@@ -348,11 +373,11 @@ class _EquilibriumSolver:
                 if len(factors) > 1:
                     rest = [(r, e.to_expr()) for j, (r, e) in enumerate(eqs) if j != idx]
                     out = []
-                    self.log("factor", row, tp.to_expr(), None, factors)
+                    self.log("factor", row, self.reveal(tp.to_expr()), None, [self.reveal(f) for f in factors])
                     for f in factors:
                         out += self.solve([(row, f)] + rest, dict(assigned))
                     return out
-            raise ExerciseError("equilibria: the equations " + ", ".join(str(e.to_expr()) for _r, e in eqs)
+            raise ExerciseError("equilibria: the equations " + ", ".join(str(self.reveal(e.to_expr())) for _r, e in eqs)
                                 + " have no closed-form solution the engine can find")
         _n, _pref, idx, kind = min(options, key=lambda o: o[:3])
         row, tp = eqs[idx]
@@ -366,7 +391,7 @@ class _EquilibriumSolver:
             values = _solve_angle(shifted, t)
             combo = sp.Add(*[n * s for s, n in v.items()])
             target = max((s for s in v if abs(v[s]) == 1), key=self.unknowns.index)
-            self.log("angle", row, tp.to_expr(), combo, values)
+            self.log("angle", row, self.reveal(tp.to_expr()), combo, [self.reveal(v) for v in values])
             for val in values:
                 expr = sp.expand((val - (combo - v[target] * target)) / v[target])
                 new = {s: sp.expand(e.subs(target, expr)) for s, e in assigned.items()}
@@ -375,7 +400,7 @@ class _EquilibriumSolver:
         else:
             var = kind[1]
             values = [s for s in sp.solve(tp.to_expr(), var) if s.is_real is not False]
-            self.log("poly", row, tp.to_expr(), var, values)
+            self.log("poly", row, self.reveal(tp.to_expr()), var, [self.reveal(v) for v in values])
             for val in values:
                 new = {s: sp.expand(e.subs(var, val)) for s, e in assigned.items()}
                 new[var] = val
@@ -448,6 +473,7 @@ def equilibria_task(ctx, spec):
             value = sol.get(s, s)
             for _ in range(len(a.q)):
                 value = sp.expand(value.subs(sol))
+            value = solver.reveal(value)
             value = _wrap_angle(value) if s in solver.angles else sp.simplify(value)
             row.append(value)
         if row not in rows:
@@ -596,7 +622,7 @@ def coordinate_map_task(ctx, spec):
     if not isinstance(raw, dict) or set(map(str, raw)) != set(a.coords):
         raise a.fail("map", f"expected one expression of the new coordinates for each of {', '.join(a.coords)}")
     f = sp.Matrix([a.expr(raw[c], f"map.{c}") for c in a.coords])
-    stray = set().union(*[e.free_symbols for e in f]) & set(a.q)
+    stray = set().union(*[e.free_symbols for e in f]) & (set(a.q) - set(theta))
     if stray:
         raise a.fail("map", f"the expressions must use the new coordinates, not {sorted(s.name for s in stray)}")
     T = f.jacobian(sp.Matrix(theta))
