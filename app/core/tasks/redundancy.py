@@ -240,6 +240,10 @@ def sns_task(ctx, spec):
     lo, hi = d.bounds(spec.get("bounds") or {}, n)
     out = red.sns(J, target, lo, hi, minimum_norm=bool(spec.get("minimum_norm", False)),
                   threshold=float(spec.get("threshold", red.DEFAULT_THRESHOLD)), symbol=sym, task_symbol=tsym)
+    if m == (2 if d.robot.is_planar else 3):     # a Cartesian task: its arrows at the end effector
+        out.steps[-1].highlight["vectors"] = [
+            {"label": "task", "vector": [float(x) for x in target] + [0.0] * (3 - m), "role": "desired"},
+            {"label": "executed", "vector": [float(x) for x in J @ out.dq] + [0.0] * (3 - m), "role": "achieved"}]
     ctx.steps.extend(out.steps)
     ctx.answer(name, out.dq)
     ctx.answer(f"{name}_scale", out.scale)
