@@ -46,7 +46,7 @@ OBJECTIVES = {"thesis convention (θ̇ along ψ)": "thesis", "true ball velocity
 FPS = 30.0
 #: the Bezier chart's rectangle in the plane (x0, y0, width, height) [m], below the ground
 CHART_RECT = (0.0, -1.6, 2.6, 1.05)
-REJECT_DELAY = 0.8        # seconds of quiet before badly typed control points are refused
+TYPING_PAUSE = 0.8        # seconds of quiet before typed control points are applied (or refused)
 
 
 def available(robot) -> bool:
@@ -123,12 +123,12 @@ class ThrowStudio:
         self.lock = threading.RLock()
         self.view: Optional[ThrowView] = None          # the last throw that could be carried out
         self.error: Optional[str] = None               # why the current values do not make a throw
-        self._notified_error: Optional[str] = None
+        self._in_error = False                         # a notification was shown for the current problem
         self._arm: Optional[ThrowingArm] = None
         self._arm_key = None
         self._flags: set = set()
         self._shown_q0 = None
-        self._reject_timers: Dict[str, threading.Timer] = {}
+        self._typing_timers: Dict[str, threading.Timer] = {}
         self._anim = {"t": 0.0, "playing": False, "speed": 0.25}
         self._anim_lock = threading.Lock()
         self._thread: Optional[threading.Thread] = None
@@ -200,7 +200,7 @@ class ThrowStudio:
                                       initial_value=float(v["theta_b"]), hint="θ at the start (s = 0)")
         self.theta_e = gui.add_slider("θe [m]", min=-round(reach, 3), max=round(reach, 3), step=0.0005,
                                       initial_value=float(v["theta_e"]), hint="θ at the release (s = 1)")
-        self.k = gui.add_slider("k [N m/rad]", min=0.0, max=max(200.0, float(v["k"])), step=0.01,
+        self.k = gui.add_slider("Spring k [N m/rad]", min=0.0, max=max(200.0, float(v["k"])), step=0.01,
                                 initial_value=float(v["k"]), hint="stiffness of the wrist spring")
         self.theta_dot_b = gui.add_number("θ̇b [m/s]", float(v["theta_dot_b"]), min=0.0, max=20.0, step=0.01,
                                           hint="initial speed along θ (0: from rest)")
@@ -372,21 +372,28 @@ class ThrowStudio:
         self._edited()
 
     def _points_typed(self, kind: str, event) -> None:
-        """A control-point list was typed: applied when it parses; refused (message, last good list
-        back) only after the typing pauses, so that a half-typed list is not rejected."""
+        """A control-point list is being typed (the browser sends every keystroke): it is applied once
+        the typing pauses, so that half-typed lists are neither solved nor refused."""
         if event.client is None:
             return
-        field = event.target
-        timer = self._reject_timers.pop(kind, None)
+        timer = self._typing_timers.pop(kind, None)
         if timer is not None:
             timer.cancel()
+        timer = threading.Timer(TYPING_PAUSE, self._guarded, (self._apply_typed, kind, event.target))
+        timer.daemon = True
+        self._typing_timers[kind] = timer
+        timer.start()
+
+    def _apply_typed(self, kind: str, field) -> None:
+        """Apply a typed list; a bad one is refused with a message and the last good list comes back."""
+        if not self._alive():
+            return
         try:
-            values = parse_points(field.value, f"φ{1 if kind == 'a' else 2} points")
-        except UserError:
-            timer = threading.Timer(REJECT_DELAY, self._reject_points, (kind, field))
-            timer.daemon = True
-            self._reject_timers[kind] = timer
-            timer.start()
+            values = parse_points(field.value, f"φ{1 if kind == 'a' else 2} points {kind}")
+        except UserError as exc:
+            field.value = format_points(self.values[kind])
+            self.session.notify("Control points not changed", f"{exc}; keeping {format_points(self.values[kind])}",
+                                error=True)
             return
         with self.lock:
             if values == self.values[kind]:
@@ -401,18 +408,6 @@ class ThrowStudio:
             self.point.value = self._selected_label()
         self._sync_point_slider()
         self._edited()
-
-    def _reject_points(self, kind: str, field) -> None:
-        if not self._alive():
-            return
-        name = f"φ{1 if kind == 'a' else 2} points"
-        try:
-            parse_points(field.value, name)
-            return
-        except UserError as exc:
-            message = f"{exc}; keeping {format_points(self.values[kind])}"
-        field.value = format_points(self.values[kind])
-        self.session.notify("Control points not changed", message, error=True)
 
     def _raise_degree(self) -> None:
         with self.lock:
@@ -478,7 +473,7 @@ class ThrowStudio:
         self._sync_widgets()
         self._remember()
         self._stop()
-        self.request({"frame", "play"} if play else {"frame"})
+        self.request({"frame", "play", "load"} if play else {"frame", "load"})
 
     # ================================================================== solving and showing
     def _compute_now(self) -> None:
@@ -498,7 +493,7 @@ class ThrowStudio:
             arm = self.arm()
             view = evaluate(arm, spec)
         except UserError as exc:
-            self._show_problem(str(exc), values, spec)
+            self._show_problem(str(exc), values, spec, flags)
             return
         if self._alive():
             self._show(view, values, flags)
@@ -529,7 +524,7 @@ class ThrowStudio:
         with self.lock:
             self.view = view
             self.error = None
-            self._notified_error = None
+            self._in_error = False
         title = self._title()
         thesis = self.config.thesis if not self.edited else None
         self.badge.content = feasibility_badge(view.feasibility)
@@ -572,17 +567,19 @@ class ThrowStudio:
         return (f'<div style="font-size:0.8em;color:#444"><b>{html.escape(title)}</b>'
                 f'<div style="color:#666;font-size:0.92em;line-height:1.3">{html.escape(cfg.notes)}</div></div>')
 
-    def _show_problem(self, message: str, values, spec) -> None:
-        first = self._notified_error != message
+    def _show_problem(self, message: str, values, spec, flags=()) -> None:
+        """The values make no throw: red badge with the reason, a notification when the throw
+        turns bad (not again for every step of a drag that stays bad, but for every load)."""
         with self.lock:
+            notify = not self._in_error or "load" in flags
             self.error = message
-            self._notified_error = message
+            self._in_error = True
             shown = self.view is not None
         self.badge.content = badge_html(
             "error", "This throw cannot be carried out", [message],
             note="The plots and the 3D view keep the last throw that could be carried out." if shown else "")
         self._redraw_chart(values, spec)
-        if first:
+        if notify:
             self.session.notify("The throw cannot be carried out", message, error=True)
 
     # ================================================================== camera and animation
@@ -818,7 +815,7 @@ class ThrowStudio:
     def close(self) -> None:
         """Stop the animation and remove the studio's drawings (robot switched, panel rebuilt)."""
         self.closed = True
-        for timer in self._reject_timers.values():
+        for timer in self._typing_timers.values():
             timer.cancel()
         self.nodes.clear()
         for ghost in ("throw_start", "throw_release"):
