@@ -117,3 +117,70 @@ def task_velocity_task(ctx, spec):
     v = J @ dq
     ctx.step(f"Task velocity {name}", rf"{name} = J \dot q = {mat(J)} {vec(dq)} = {vec(v)}", "")
     ctx.answer(name, v)
+
+
+def _compare_inverses(J, xd, threshold):
+    """Cartesian velocities of q'_A = J^# x'_d and q'_B = J^T x'_d, and the SVD quantities."""
+    U, s, _ = np.linalg.svd(J)
+    r = int(np.sum(s > threshold))
+    w = U[:, :r].T @ xd
+    xa = J @ red.pinv(J, threshold) @ xd
+    xb = J @ J.T @ xd
+    return xa, xb, float(w @ w), float(np.sum((s[:r] * w) ** 2)), r
+
+
+@task("pinv_vs_transpose")
+def pinv_vs_transpose_task(ctx, spec):
+    """Pseudoinverse vs Jacobian transpose at a (possibly singular) J: with J = U S V^T and
+    w = U_r^T x'_d, x'_d^T J J^# x'_d = |w|^2 >= 0 and x'_d^T J J^T x'_d = sum sigma_i^2 w_i^2 >= 0
+    (angles at most pi/2); for x'_d in the range of J only the pseudoinverse is exact.
+
+    Options ``jacobian``, ``task`` (x'_d), ``threshold``, ``random`` (count of random rank-deficient
+    instances checked, seed 0). Answers ``<name>_A``, ``<name>_B`` (the Cartesian velocities),
+    ``<name>_inner_A``, ``<name>_inner_B``, ``<name>_w_norm2``, ``<name>_sigma_w_norm2``, ``<name>_rank``,
+    ``<name>_acute_A``, ``<name>_acute_B``, ``<name>_exact_A``, ``<name>_exact_B`` (yes/no), and with
+    ``random``: ``<name>_random_acute`` (all angles <= pi/2), ``<name>_random_range_exact_A`` (J J^# x = x
+    for every x in the range), ``<name>_random_range_exact_B_count`` (instances where J J^T x = x)."""
+    d = data(ctx)
+    name = spec.get("name", "cmp")
+    J = d.jacobian(spec.get("jacobian", "J"))
+    xd = d.array(spec["task"], "task").reshape(-1)
+    thr = float(spec.get("threshold", red.DEFAULT_THRESHOLD))
+    xa, xb, w2, sw2, r = _compare_inverses(J, xd, thr)
+    tol = 1e-9 * max(1.0, float(np.linalg.norm(xd)))
+    ctx.step("Pseudoinverse command", rf"\dot x_A = J J^\# \dot x_d = U \Sigma \Sigma^\# U^T \dot x_d = {vec(xa)},\quad \dot x_d^T \dot x_A = \|w\|^2 = {num(w2)}",
+             f"Rank {r}: the projection of x'_d on the range of J (w = U_r^T x'_d); the angle with x'_d is at most pi/2.")
+    ctx.step("Transpose command", rf"\dot x_B = J J^T \dot x_d = U \Sigma \Sigma^T U^T \dot x_d = {vec(xb)},\quad \dot x_d^T \dot x_B = \sum_i \sigma_i^2 w_i^2 = {num(sw2)}",
+             "Each range direction is scaled by sigma_i^2: also at most pi/2 from x'_d, but not equal to it.")
+    ctx.answer(f"{name}_A", xa)
+    ctx.answer(f"{name}_B", xb)
+    ctx.answer(f"{name}_inner_A", float(xd @ xa))
+    ctx.answer(f"{name}_inner_B", float(xd @ xb))
+    ctx.answer(f"{name}_w_norm2", w2)
+    ctx.answer(f"{name}_sigma_w_norm2", sw2)
+    ctx.answer(f"{name}_rank", r)
+    ctx.answer(f"{name}_acute_A", bool(xd @ xa >= -tol))
+    ctx.answer(f"{name}_acute_B", bool(xd @ xb >= -tol))
+    ctx.answer(f"{name}_exact_A", bool(np.linalg.norm(xa - xd) <= tol))
+    ctx.answer(f"{name}_exact_B", bool(np.linalg.norm(xb - xd) <= tol))
+    count = int(spec.get("random", 0))
+    if count:
+        rng = np.random.default_rng(0)
+        acute, exact_a, exact_b = True, True, 0
+        for _ in range(count):
+            m = int(rng.integers(2, 4))
+            n = int(rng.integers(m + 1, 7))
+            rank = int(rng.integers(1, m))
+            Jr = rng.normal(size=(m, rank)) @ rng.normal(size=(rank, n))
+            x = rng.normal(size=m)
+            a, b, *_ = _compare_inverses(Jr, x, 1e-9)
+            acute &= bool(x @ a >= -1e-9 and x @ b >= -1e-9)
+            x_range = Jr @ rng.normal(size=n)
+            a, b, *_ = _compare_inverses(Jr, x_range, 1e-9)
+            exact_a &= bool(np.linalg.norm(a - x_range) <= 1e-8 * max(1.0, np.linalg.norm(x_range)))
+            exact_b += int(np.linalg.norm(b - x_range) <= 1e-8 * max(1.0, np.linalg.norm(x_range)))
+        ctx.step("Random singular Jacobians", rf"{count}\ \text{{instances}}:\ \dot x_d^T \dot x_{{A,B}} \ge 0\ \text{{always}}: {'yes' if acute else 'no'}",
+                 f"For x'_d in the range, the pseudoinverse was exact in {'all' if exact_a else 'not all'} instances, the transpose in {exact_b}.")
+        ctx.answer(f"{name}_random_acute", acute)
+        ctx.answer(f"{name}_random_range_exact_A", exact_a)
+        ctx.answer(f"{name}_random_range_exact_B_count", exact_b)
