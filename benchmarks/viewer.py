@@ -67,12 +67,12 @@ def _switch(page, session, name) -> float:
 
 
 def switching(browser):
-    from app.viewer.screenshot import _new_session, wait_ready
+    from app.viewer.screenshot import new_session, wait_ready
     from app.viewer.server import LabServer
     lab = LabServer(port=0, robot=CACHED[0], verbose=False)
     page = browser.page(lab.url)
     wait_ready(page, CACHED[0])
-    session = _new_session(lab, set())
+    session = new_session(lab, set())
     for name in CACHED[1:] + CACHED[:1]:          # warm every robot once
         _switch(page, session, name)
     cached = {}
@@ -103,13 +103,13 @@ def switching(browser):
 
 
 def drag(browser, seconds=3.0):
-    from app.viewer.screenshot import slider_thumb, wait_ready, _new_session
+    from app.viewer.screenshot import slider_thumb, wait_ready, new_session
     from app.viewer.scene_view import SceneView
     from app.viewer.server import LabServer
     lab = LabServer(port=0, robot="planar_2r", verbose=False)
     page = browser.page(lab.url)
     wait_ready(page, "planar_2r")
-    session = _new_session(lab, set())
+    session = new_session(lab, set())
     counts = {"updates": 0, "poses": 0}
     original_moved, original_pose = session._slider_moved, SceneView.set_pose
 

@@ -32,7 +32,7 @@ def open_tab(lab, browser, robot="planar_2r", hide=True):
     lab.initial_robot = robot
     page = browser.page(lab.url)
     shots.wait_ready(page, robot)
-    session = shots._new_session(lab, before)
+    session = shots.new_session(lab, before)
     if hide:
         shots.hide_notifications(page)
     shots.settle(page, 0.8)

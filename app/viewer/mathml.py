@@ -17,7 +17,7 @@ import base64
 import functools
 import re
 from pathlib import Path
-from typing import Iterable, List, Optional, Sequence
+from typing import Iterable, List, Sequence
 
 import numpy as np
 import sympy as sp
@@ -283,7 +283,3 @@ def label_html(text: str) -> str:
 
 def blocks_html(blocks: Iterable[str]) -> str:
     return "".join(math_html(b) for b in blocks)
-
-
-def vector_latex(values: Sequence[float], digits: int = 3) -> str:
-    return "(" + ",\\ ".join(number_latex(float(v), digits) for v in values) + ")"

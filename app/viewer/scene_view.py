@@ -5,7 +5,7 @@ labels). Panels reach it as ``session.scene``; see docs/panels.md.
 from __future__ import annotations
 
 import threading
-from typing import Dict, Iterable, List, Optional, Sequence, Tuple
+from typing import Dict, Iterable, List, Optional, Tuple
 
 import numpy as np
 

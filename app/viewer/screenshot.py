@@ -144,7 +144,7 @@ def capture(robot: str, out: str | Path, panel: Optional[str] = None,
         page = browser.page(lab.url, width, height)
         try:
             wait_ready(page, robot)
-            session = _new_session(lab, before)
+            session = new_session(lab, before)
             hide_notifications(page)
             if panel:
                 select_tab(page, panel)
@@ -170,7 +170,8 @@ def capture(robot: str, out: str | Path, panel: Optional[str] = None,
     return out
 
 
-def _new_session(lab, before, timeout: float = 30.0):
+def new_session(lab, before, timeout: float = 30.0):
+    """The session of the tab that connected after the ids in ``before`` were taken."""
     deadline = time.time() + timeout
     while time.time() < deadline:
         new = [s for cid, s in list(lab.sessions.items()) if cid not in before]
@@ -178,3 +179,6 @@ def _new_session(lab, before, timeout: float = 30.0):
             return new[-1]
         time.sleep(0.05)
     raise RuntimeError("the page connected but no session appeared")
+
+
+_new_session = new_session    # the earlier name, used by app/panels/throw.py

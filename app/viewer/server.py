@@ -13,7 +13,7 @@ import threading
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Dict, List, Optional, Tuple
+from typing import Dict, List, Optional, Tuple
 
 import viser
 
@@ -43,7 +43,6 @@ class LabServer:
         self._catalog: Dict[str, Tuple[float, RobotInfo]] = {}
         self._lock = threading.Lock()
         self.sessions: Dict[int, Session] = {}
-        self.session_hooks: List[Callable[[Session], None]] = []
         names = list_robot_names()
         if robot is not None:
             self.robot(robot)          # fail early (UserError) on an unknown robot
@@ -111,8 +110,6 @@ class LabServer:
                                     color="red", with_close_button=True)
             return
         self.sessions[client.client_id] = session
-        for hook in list(self.session_hooks):
-            hook(session)
 
     def _disconnect(self, client) -> None:
         session = self.sessions.pop(client.client_id, None)

@@ -308,6 +308,7 @@ class Session:
                 self._info.content = self._info_html(robot)
                 self._badge.content = self._badge_html("pending", "pinocchio cross-check: waiting for the model")
                 self.scene.clear_overlays()
+                self.scene.clear_highlight()
                 self.scene.show_robot(drawing, self.q)
                 self._build_coordinates()
                 self._build_parameters()
