@@ -50,6 +50,7 @@ class SceneView:
         self._frame_pending = False
         self._camera_hooked = False
         self._gravity = None
+        self._gravity_place = None
         # flat textbook look, and cheap frames in software WebGL: no shadows, no environment map
         self.scene.configure_default_lights(enabled=True, cast_shadow=False)
         self.scene.configure_environment_map(hdri=None)
@@ -82,6 +83,8 @@ class SceneView:
                     f"{ROBOT_ROOT}/{_node(mark.attach)}/label", mark.text, position=tuple(mark.position),
                     anchor="bottom-left", font_screen_scale=1.1, visible=self.options["labels"]))
             self._draw_environment(drawing)
+            if self._gravity_place is not None:       # same view as before (a parameter changed)
+                self._place_gravity(*self._gravity_place)
             self.set_pose(q)
             self._apply_highlight()
 
@@ -337,6 +340,7 @@ class SceneView:
                 camera.up_direction = tuple(up)
                 camera.position = tuple(position)
                 camera.look_at = tuple(look_at)
+                self._gravity_place = (framing, right, half_width)
                 self._place_gravity(framing, right, half_width)
 
     def _first_camera_report(self, _camera) -> None:
