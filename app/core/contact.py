@@ -143,3 +143,61 @@ def hybrid_selection(rotation, force_axes: Sequence[int]) -> HybridSelection:
         S[i, i] = 1.0
     Sf = R @ S @ R.T
     return HybridSelection(R, list(force_axes), Sf, np.eye(n) - Sf)
+
+
+# ====================================================================== natural and artificial constraints
+#: task-frame directions: translations along and rotations about x_t, y_t, z_t
+VELOCITY_NAMES = ("v_x", "v_y", "v_z", "w_x", "w_y", "w_z")
+FORCE_NAMES = ("F_x", "F_y", "F_z", "M_x", "M_y", "M_z")
+
+#: motions a contact leaves free, by the type of the pair and its axis (0, 1, 2 = x_t, y_t, z_t):
+#: indices into VELOCITY_NAMES
+PAIRS = {
+    "point": lambda a: [i for i in range(6) if i != a],            # frictionless point contact, normal a
+    "planar": lambda a: [i for i in range(3) if i != a] + [3 + a],  # face on a plane of normal a
+    "prismatic": lambda a: [a],                                     # e.g. a square peg in its hole
+    "cylindrical": lambda a: [a, 3 + a],                            # a round peg, a door handle
+    "revolute": lambda a: [3 + a],
+    "spherical": lambda a: [3, 4, 5],
+}
+
+
+@dataclass
+class TaskFrameConstraints:
+    free: List[bool]                     # per direction: motion allowed by the environment
+    commandable: List[bool]              # per direction: the robot can act along it
+    natural_velocities: List[str]        # zero velocities imposed by the environment
+    natural_forces: List[str]            # zero forces/moments (no reaction along free directions)
+    force_controlled: List[str]          # artificial constraints on forces (commandable directions)
+    velocity_controlled: List[str]       # artificial constraints on velocities (commandable directions)
+    uncontrolled: List[str]              # artificial constraints the robot cannot impose
+    S_f: np.ndarray                      # 6 x k selection of the force-controlled directions
+    S_v: np.ndarray                      # 6 x (commandable - k) selection of the velocity-controlled ones
+
+
+def task_frame_constraints(free: Sequence[int], commandable: Optional[Sequence[int]] = None) -> TaskFrameConstraints:
+    """Natural constraints (v = 0 along blocked directions, F = 0 along free ones) and artificial
+    constraints (the complement: forces along blocked directions, velocities along free ones), with
+    the selection matrices of hybrid force/velocity control for the directions the robot commands.
+
+    >>> c = task_frame_constraints(PAIRS["planar"](2), commandable=[0, 1, 2, 5])   # cube on a plane, SCARA
+    >>> c.natural_velocities, c.force_controlled, c.velocity_controlled, c.uncontrolled
+    (['v_z', 'w_x', 'w_y'], ['F_z'], ['v_x', 'v_y', 'w_z'], ['M_x', 'M_y'])
+    """
+    free_mask = [i in set(free) for i in range(6)]
+    cmd = [True] * 6 if commandable is None else [i in set(commandable) for i in range(6)]
+    f_idx = [i for i in range(6) if not free_mask[i] and cmd[i]]
+    v_idx = [i for i in range(6) if free_mask[i] and cmd[i]]
+    S_f = np.zeros((6, len(f_idx)))
+    S_v = np.zeros((6, len(v_idx)))
+    for k, i in enumerate(f_idx):
+        S_f[i, k] = 1.0
+    for k, i in enumerate(v_idx):
+        S_v[i, k] = 1.0
+    return TaskFrameConstraints(
+        free_mask, cmd,
+        [VELOCITY_NAMES[i] for i in range(6) if not free_mask[i]],
+        [FORCE_NAMES[i] for i in range(6) if free_mask[i]],
+        [FORCE_NAMES[i] for i in f_idx], [VELOCITY_NAMES[i] for i in v_idx],
+        [(VELOCITY_NAMES if free_mask[i] else FORCE_NAMES)[i] for i in range(6) if not cmd[i]],
+        S_f, S_v)

@@ -24,6 +24,18 @@ Values follow the conventions of ``kinematic`` (TaskData).
 ``impedance_gains``: ``mass`` (number, expression, list, or ``inertia`` for a constant diagonal
   M(q)), and either ``omega`` and ``zeta`` or ``eigenvalue`` (double real eigenvalue -lambda); symbols
   without a value in ``given`` stay symbolic. Answers ``K_d``, ``D_d``, ``M_d`` (+ ``_<suffix>``).
+``hybrid_constraints``: natural and artificial constraints of a task in a task frame, and the
+  selection matrices of hybrid force/velocity control. The environment is described by ``contact``
+  ({pair: point | planar | prismatic | cylindrical | revolute | spherical, axis: x | y | z}: the
+  motions the contact leaves free) or by ``free`` (a list among v_x, v_y, v_z, w_x, w_y, w_z);
+  ``references``: desired values of the artificial constraints (e.g. {F_z: F_zd, v_x: v_xd}; the
+  others are 0); ``directions``: what the robot commands, ``all`` (default, six dof), a list, or
+  ``jacobian`` (the task-frame rows of the geometric Jacobian of ``point`` that are not zero at
+  ``q``; the task frame is the base frame). Answers (prefixed ``<name>_``, default hf):
+  ``natural_velocities``, ``natural_forces``, ``force_controlled``, ``force_references``,
+  ``velocity_controlled``, ``velocity_references``, ``uncontrolled``, ``automatic`` (uncontrolled
+  constraints with reference 0 that the structure satisfies by itself), ``S_f``, ``S_v``,
+  ``force_loops``, ``velocity_loops``, ``specifications`` (the constraints the robot imposes).
 ``force_capability``: ``point``, ``torque`` bounds, ``q``: the largest ||F|| sustainable in every
   direction, min_i T_i / ||J_i||. Answers ``force_max``, ``force_limiting_joint``, ``column_norms``.
 """
@@ -284,3 +296,82 @@ def force_capability_task(ctx, spec):
     ctx.answer("force_max", r)
     ctx.answer("force_limiting_joint", joint)
     ctx.answer("column_norms", norms)
+
+
+@task("hybrid_constraints")
+def hybrid_constraints_task(ctx, spec):
+    """Natural/artificial constraints in a task frame and the hybrid selection matrices."""
+    d = data(ctx)
+    robot = d.robot
+    name = spec.get("name", "hf")
+    axes = {"x": 0, "y": 1, "z": 2}
+    if "contact" in spec:
+        c = spec["contact"]
+        pair, axis = (c.get("pair"), c.get("axis", "z")) if isinstance(c, dict) else (None, None)
+        if pair not in con.PAIRS or axis not in axes:
+            raise d._fail(f"hybrid_constraints.contact: expected {{pair: {' | '.join(con.PAIRS)}, axis: x | y | z}}")
+        free = con.PAIRS[pair](axes[axis])
+        how = f"A {pair} contact with axis {axis}_t leaves free: {', '.join(con.VELOCITY_NAMES[i] for i in free) or 'nothing'}."
+    elif "free" in spec:
+        bad = [v for v in spec["free"] if v not in con.VELOCITY_NAMES]
+        if bad:
+            raise d._fail(f"hybrid_constraints.free: unknown directions {bad} (use {', '.join(con.VELOCITY_NAMES)})")
+        free = [con.VELOCITY_NAMES.index(v) for v in spec["free"]]
+        how = f"Free motions: {', '.join(spec['free'])}."
+    else:
+        raise d._fail("hybrid_constraints: give contact {pair, axis} or free [...]")
+    directions = spec.get("directions", "all")
+    if directions == "all":
+        commandable = list(range(6))
+    elif directions == "jacobian":
+        q = d.configuration(spec.get("q"))
+        try:
+            J6 = jac.jacobian(robot, spec.get("point", "ee"), ["x", "y", "z", "wx", "wy", "wz"])
+        except UserError as exc:
+            raise d._fail(f"hybrid_constraints.point: {exc}") from None
+        Jn = np.atleast_2d(jac.evaluate(robot, J6, q, d.params))
+        commandable = [i for i in range(6) if np.linalg.norm(Jn[i]) > 1e-9]
+        ctx.step("Directions the robot commands", r"J(q) = " + mat(Jn),
+                 f"Rows of the geometric Jacobian that are not zero: {', '.join(con.VELOCITY_NAMES[i] for i in commandable)}.",
+                 configuration={c: float(v) for c, v in zip(robot.coordinates, q)})
+    else:
+        bad = [v for v in directions if v not in con.VELOCITY_NAMES]
+        if bad:
+            raise d._fail(f"hybrid_constraints.directions: unknown directions {bad}")
+        commandable = [con.VELOCITY_NAMES.index(v) for v in directions]
+    res = con.task_frame_constraints(free, commandable)
+    refs = spec.get("references") or {}
+    unknown = [k for k in refs if k not in con.VELOCITY_NAMES + con.FORCE_NAMES]
+    if unknown:
+        raise d._fail(f"hybrid_constraints.references: unknown names {unknown}")
+    natural = set(res.natural_velocities) | set(res.natural_forces)
+    clash = [k for k in refs if k in natural]
+    if clash:
+        raise d._fail(f"hybrid_constraints.references: {clash} are natural constraints (imposed by the environment), not references")
+    ref = lambda k: d.expression(str(refs[k]), f"references.{k}") if k in refs else sp.Integer(0)
+    tex = lambda names, values: r",\ ".join(rf"{sp.latex(sp.Symbol(n))} = {sp.latex(v)}" for n, v in zip(names, values)) or r"\text{none}"
+    ctx.step("Natural constraints", tex(res.natural_velocities + res.natural_forces, [0] * 6),
+             how + " The environment blocks the other motions (zero velocity) and exerts no force or moment along the free ones.")
+    art = [n for n in con.FORCE_NAMES if n not in natural] + [n for n in con.VELOCITY_NAMES if n not in natural]
+    ctx.step("Artificial constraints", tex(art, [ref(n) for n in art]),
+             "The complement of the natural ones: the references of the controller (0 unless the task asks otherwise).")
+    automatic = [n for n in res.uncontrolled if n in con.FORCE_NAMES and ref(n) == 0]
+    empty = r"\emptyset"
+    ctx.step("Selection matrices", rf"S_f = {mat(res.S_f) if res.S_f.size else empty},\quad S_v = {mat(res.S_v) if res.S_v.size else empty}",
+             f"{len(res.force_controlled)} force loop(s), {len(res.velocity_controlled)} velocity loop(s)"
+             + (f"; the robot cannot impose {', '.join(res.uncontrolled)}" if res.uncontrolled else "")
+             + (f" ({', '.join(automatic)} = 0 hold by themselves: the structure resists those directions)" if automatic else "") + ".")
+    syms = lambda names: [sp.Symbol(n) for n in names]
+    ctx.answer(f"{name}_natural_velocities", syms(res.natural_velocities))
+    ctx.answer(f"{name}_natural_forces", syms(res.natural_forces))
+    ctx.answer(f"{name}_force_controlled", syms(res.force_controlled))
+    ctx.answer(f"{name}_force_references", [ref(n) for n in res.force_controlled])
+    ctx.answer(f"{name}_velocity_controlled", syms(res.velocity_controlled))
+    ctx.answer(f"{name}_velocity_references", [ref(n) for n in res.velocity_controlled])
+    ctx.answer(f"{name}_uncontrolled", syms(res.uncontrolled))
+    ctx.answer(f"{name}_automatic", syms(automatic))
+    ctx.answer(f"{name}_S_f", res.S_f)
+    ctx.answer(f"{name}_S_v", res.S_v)
+    ctx.answer(f"{name}_force_loops", len(res.force_controlled))
+    ctx.answer(f"{name}_velocity_loops", len(res.velocity_controlled))
+    ctx.answer(f"{name}_specifications", len(res.force_controlled) + len(res.velocity_controlled))
