@@ -107,36 +107,60 @@ def _tp(expr) -> TrigPoly:
     return TrigPoly.from_expr(expr)
 
 
-def _expr(tp: TrigPoly, angles=()) -> sp.Expr:
-    return pretty(tp, angles)
+def _expr(tp: TrigPoly, angles=(), masses=()) -> sp.Expr:
+    return pretty(tp, angles, masses)
 
 
-def pretty(tp: TrigPoly, angles: Sequence[Dict[sp.Symbol, int]] = ()) -> sp.Expr:
+_NICE_CACHE: Dict[Tuple[sp.Expr, tuple], sp.Expr] = {}
+
+
+def nice_coefficient(coeff, masses=()) -> sp.Expr:
+    """A coefficient as a student writes it: grouped by masses, each group factored,
+    e.g. D**2*m3 - 2*D*L3*m3 + L3**2*m3 + I3 -> I3 + m3*(D - L3)**2 (shortest form kept)."""
+    key = (coeff, tuple(masses))
+    hit = _NICE_CACHE.get(key)
+    if hit is not None:
+        return hit
+    plain = sp.factor_terms(coeff)
+    expanded = sp.expand(coeff)
+    present = [m for m in masses if expanded.has(m)]
+    out = plain
+    if present and isinstance(expanded, sp.Add) and len(expanded.args) > 2:
+        grouped = sp.collect(expanded, present, func=sp.factor)
+        if sp.count_ops(grouped) < sp.count_ops(plain):
+            out = grouped
+    if len(_NICE_CACHE) > 20000:
+        _NICE_CACHE.clear()
+    _NICE_CACHE[key] = out
+    return out
+
+
+def pretty(tp: TrigPoly, angles: Sequence[Dict[sp.Symbol, int]] = (), masses=()) -> sp.Expr:
     """A compact, student-like sympy expression of a canonical trigonometric polynomial.
 
     Terms are grouped by basis function. When double angles appear (spatial robots), the terms are
     also rewritten as products of sines and cosines of the ``angles`` (the links' own angles, e.g.
     q2 and q2 + q3), reduced with sin^2 + cos^2 = 1, and the shorter form is kept:
     cos(q3) + cos(2 q2 + q3) becomes 2 cos(q2) cos(q2 + q3)."""
-    base = tp.to_expr(factor_coefficients=True)
+    base = sp.Add(*[nice_coefficient(c, masses) * TrigPoly.basis_function(k) for k, c in tp.terms.items()])
     if not angles or not any(max(abs(n) for _, n in freq) > 1 for (freq, _k) in tp.terms if freq):
         return base
-    alt = _product_form(tp, list(angles))
+    alt = _product_form(tp, list(angles), masses)
     if alt is None:
         return base
     return alt if sp.count_ops(alt) < sp.count_ops(base) else base
 
 
-def tidy(expr, angles=()) -> sp.Expr:
+def tidy(expr, angles=(), masses=()) -> sp.Expr:
     """The shorter of the grouped form and the canonical (pretty) form of a kinematic expression."""
     grouped = collect_trig(expr)
     if not expr.has(sp.sin, sp.cos):
         return grouped
-    canon = pretty(TrigPoly.from_expr(expr), angles)   # grouped form is already the product form
+    canon = pretty(TrigPoly.from_expr(expr), angles, masses)   # grouped form is already the product form
     return canon if sp.count_ops(canon) < sp.count_ops(grouped) else grouped
 
 
-def _product_form(tp: TrigPoly, angles):
+def _product_form(tp: TrigPoly, angles, masses=()):
     """Rewrite every term over products of cos/sin of ``angles`` (None when impossible)."""
     m = len(angles)
     C = sp.symbols(f"_C0:{m}")
@@ -163,48 +187,69 @@ def _product_form(tp: TrigPoly, angles):
                         return [(i, -1), (j, sb)]
         return None
 
-    total = sp.Integer(0)
+    # polynomial in (C_0..C_m-1, S_0..S_m-1) as {exponents: coefficient}
+    def mul(p, q):
+        out = {}
+        for e1, c1 in p.items():
+            for e2, c2 in q.items():
+                e = tuple(a + b for a, b in zip(e1, e2))
+                out[e] = out.get(e, 0) + c1 * c2
+        return out
+
+    def unit(index, sign=1):
+        e = [0] * (2 * m)
+        e[index] = 1
+        return {tuple(e): sign}
+
+    zero = tuple([0] * (2 * m))
+    total: Dict[tuple, sp.Expr] = {}
     for (freq, kind), coeff in tp.terms.items():
         if not freq:
-            total += coeff
+            total[zero] = total.get(zero, 0) + coeff
             continue
         parts = find(freq)
         if parts is None:
             return None
-        c, s_ = sp.Integer(1), sp.Integer(0)   # cos and sin of the running sum
+        c, s_ = {zero: 1}, {}   # cos and sin of the running sum
         for idx, sign in parts:
-            ci, si = C[idx], sign * S[idx]
-            c, s_ = c * ci - s_ * si, s_ * ci + c * si
-        total += coeff * (c if kind == "c" else s_)
-    total = sp.expand(total)
+            ci, si = unit(idx), unit(m + idx, sign)
+            c, s_ = _padd(mul(c, ci), mul(s_, si), -1), _padd(mul(s_, ci), mul(c, si), 1)
+        for e, v in (c if kind == "c" else s_).items():
+            total[e] = total.get(e, 0) + coeff * v
+    back = [sp.cos(_angle_expr(v)) for v in vecs] + [sp.sin(_angle_expr(v)) for v in vecs]
     best = None
     for reduce_sin in (True, False):
-        expr = total
+        poly = dict(total)
         for i in range(m):
-            if reduce_sin:
-                expr = _reduce_square(expr, S[i], C[i])
-            else:
-                expr = _reduce_square(expr, C[i], S[i])
-        back = {C[i]: sp.cos(_angle_expr(vecs[i])) for i in range(m)}
-        back.update({S[i]: sp.sin(_angle_expr(vecs[i])) for i in range(m)})
-        monos = sp.Poly(expr, *C, *S).terms()
-        grouped = {}
-        for monom, coeff in monos:
-            key = sp.Mul(*[g ** e for g, e in zip(list(C) + list(S), monom)])
-            grouped[key] = grouped.get(key, 0) + coeff
-        out = sp.Add(*[sp.factor_terms(c) * k.xreplace(back) for k, c in grouped.items()])
+            x, y = (m + i, i) if reduce_sin else (i, m + i)   # x^2 -> 1 - y^2
+            poly = _reduce_square(poly, x, y)
+        out = sp.Add(*[nice_coefficient(sp.expand(c), masses) * sp.Mul(*[b ** k for b, k in zip(back, e)])
+                       for e, c in poly.items() if sp.expand(c) != 0])
         if best is None or sp.count_ops(out) < sp.count_ops(best):
             best = out
     return best
 
 
-def _reduce_square(expr, x, y):
-    """Replace x**2 by 1 - y**2 everywhere (x, y are sin/cos placeholders of one angle)."""
-    poly = sp.Poly(expr, x)
-    out = sp.Integer(0)
-    for (k,), c in poly.terms():
-        out += c * x ** (k % 2) * (1 - y ** 2) ** (k // 2)
-    return sp.expand(out)
+def _padd(p, q, sign):
+    out = dict(p)
+    for e, c in q.items():
+        out[e] = out.get(e, 0) + sign * c
+    return out
+
+
+def _reduce_square(poly, x, y):
+    """Replace X**2 by 1 - Y**2 in a polynomial {exponents: coefficient} (X, Y: sin/cos of one
+    angle, at positions x and y of the exponent tuples)."""
+    out: Dict[tuple, sp.Expr] = {}
+    for e, c in poly.items():
+        k, r = divmod(e[x], 2)
+        for j in range(k + 1):   # (1 - Y^2)^k = sum_j binom(k, j) (-1)^j Y^(2j)
+            f = list(e)
+            f[x] = r
+            f[y] = e[y] + 2 * j
+            f = tuple(f)
+            out[f] = out.get(f, 0) + c * sp.binomial(k, j) * (-1) ** j
+    return out
 
 
 def _angle_expr(vec):
@@ -220,8 +265,8 @@ def collect_trig(expr) -> sp.Expr:
     return sp.collect(expr, atoms, func=sp.factor_terms)
 
 
-def _matrix(rows, angles=()) -> sp.Matrix:
-    return sp.Matrix([[_expr(e, angles) for e in row] for row in rows])
+def _matrix(rows, angles=(), masses=()) -> sp.Matrix:
+    return sp.Matrix([[_expr(e, angles, masses) for e in row] for row in rows])
 
 
 def natural_angles(kin: Kinematics) -> List[Dict[sp.Symbol, int]]:
@@ -305,6 +350,7 @@ class _Deriver:
             raise ValueError(f"unknown parameter(s) {sorted(unknown_names)} in 'known'")
         self.known = list(known)
         self.angles = natural_angles(self.kin)
+        self.masses = [p.symbol for p in robot.parameters.values() if p.kind == "mass"]
 
     def quadratic_form(self, Mi) -> sp.Expr:
         """1/2 dq^T Mi dq written term by term: 1/2 m_jj dq_j^2 + m_jk dq_j dq_k."""
@@ -317,10 +363,10 @@ class _Deriver:
         return sp.Add(*out)
 
     def X(self, tp: TrigPoly) -> sp.Expr:
-        return pretty(tp, self.angles)
+        return pretty(tp, self.angles, self.masses)
 
     def MX(self, rows) -> sp.Matrix:
-        return _matrix(rows, self.angles)
+        return _matrix(rows, self.angles, self.masses)
 
     def L(self, expr) -> str:
         return to_latex(expr, self.robot.coordinates)
@@ -350,10 +396,10 @@ class _Deriver:
             self.progress(0.05 + 0.45 * idx / max(1, len(robot.bodies)), f"energy of {body.name}")
             p = self.kin.com_position(body.name)
             Jv = self.kin.point_jacobian(body.name, body.com)
-            p = p.applyfunc(lambda e: tidy(e, self.angles))
-            v = (Jv * dq).applyfunc(lambda e: tidy(e, self.angles))
+            p = p.applyfunc(lambda e: tidy(e, self.angles, self.masses))
+            v = (Jv * dq).applyfunc(lambda e: tidy(e, self.angles, self.masses))
             Jw = self.kin.angular_jacobian(body.name, in_body_frame=True)
-            w = (Jw * dq).applyfunc(lambda e: tidy(e, self.angles))
+            w = (Jw * dq).applyfunc(lambda e: tidy(e, self.angles, self.masses))
             positions[body.name], velocities[body.name], omegas[body.name] = p, v, w
             Jv_tp = [[_tp(Jv[r, k]) for k in range(n)] for r in range(3)]
             Jw_tp = [[_tp(Jw[r, k]) for k in range(n)] for r in range(3)]
@@ -531,7 +577,7 @@ class _Deriver:
         Y = sp.Matrix(n, len(basis), lambda i, b: self.X(basis[b][1][i]))
         ref_map = {mono: vec for mono, vec in ref_cols}
         Y_ref = sp.Matrix(n, len(basis), lambda i, b: self.X(ref_map[basis[b][0]][i]) if basis[b][0] in ref_map else 0)
-        a = [sp.factor_terms(sp.expand(e)) for e in coeff]
+        a = [nice_coefficient(sp.expand(e), self.masses) for e in coeff]
         return Parametrization(Y, a, Y_ref, sorted(known), sorted(s.name for s in unknown_syms))
 
     def _column_vars(self, dqr, ddqr):
