@@ -36,6 +36,17 @@ Values follow the conventions of ``kinematic`` (TaskData).
   ``velocity_controlled``, ``velocity_references``, ``uncontrolled``, ``automatic`` (uncontrolled
   constraints with reference 0 that the structure satisfies by itself), ``S_f``, ``S_v``,
   ``force_loops``, ``velocity_loops``, ``specifications`` (the constraints the robot imposes).
+``residual_response``: time response of the momentum residual r = K (p - p(0) - int (tau + C^T q' - g
+  + r) dt), checked by simulating the robot. A disturbance acts from ``t_c`` (default 0): a
+  generalized force ``torque`` (M q'' + c + g = tau + tau_d), a ``fault`` u_f on the commands
+  (tau_d = -u_f) or a ``force`` on a ``point`` (tau_d = J^T(q) F). The command is tau = g(q) (+ a
+  PD hold of the initial configuration with ``hold: {kp, kd}``), from rest at ``q`` (or
+  ``velocity``). ``gains`` K (diagonal), ``duration``, ``at`` (sample times). Theory: r' = K (tau_d
+  - r), so r(t) = (1 - exp(-K (t - t_c))) tau_d for a constant tau_d. Answers (prefix
+  ``<name>_``, default r): ``at`` (simulated residual, one row per time), ``filter_at`` (first-order
+  filter of the simulated tau_d), ``closed_form_at`` (constant tau_d(t_c)), ``deviation`` (largest
+  |residual - filter| along the run), ``steady`` (tau_d(t_c)), and with a fault ``fault_at``
+  (-r, the residual with the sign that estimates u_f).
 ``force_capability``: ``point``, ``torque`` bounds, ``q``: the largest ||F|| sustainable in every
   direction, min_i T_i / ||J_i||. Answers ``force_max``, ``force_limiting_joint``, ``column_norms``.
 """
@@ -375,3 +386,85 @@ def hybrid_constraints_task(ctx, spec):
     ctx.answer(f"{name}_force_loops", len(res.force_controlled))
     ctx.answer(f"{name}_velocity_loops", len(res.velocity_controlled))
     ctx.answer(f"{name}_specifications", len(res.force_controlled) + len(res.velocity_controlled))
+
+
+@task("residual_response")
+def residual_response_task(ctx, spec):
+    """Simulated momentum residual after a collision or fault, against its first-order response."""
+    from scipy.integrate import solve_ivp
+    d = data(ctx)
+    robot = d.robot
+    n = robot.n
+    name = spec.get("name", "r")
+    num_model = ctx.numeric
+    q0 = d.configuration(spec.get("q"))
+    dq0 = d.array(spec.get("velocity", [0.0] * n), "velocity").reshape(-1)
+    K = d.array(spec.get("gains", 1.0), "gains") * np.ones(n)
+    t_c = d.number(spec.get("t_c", 0.0), "t_c")
+    T = d.number(spec.get("duration", max(t_c + 5.0 / float(K.min()), 1e-3)), "duration")
+    if np.any(K <= 0) or T <= t_c:
+        raise d._fail("residual_response: gains must be positive and the duration longer than t_c")
+    if "torque" in spec:
+        tau_c = d.array(spec["torque"], "torque").reshape(-1) * np.ones(n)
+        disturbance = lambda q: tau_c
+        what = f"generalized force {vec(tau_c)}"
+    elif "fault" in spec:
+        u_f = d.array(spec["fault"], "fault").reshape(-1) * np.ones(n)
+        disturbance = lambda q: -u_f
+        what = f"fault u_f = {vec(u_f)} subtracted from the commands"
+    elif "force" in spec:
+        F = d.array(spec["force"], "force").reshape(-1)
+        pos, jacf = num_model.point_function(*jac.point_location(robot, spec.get("point", "ee")))
+        rows = 2 if robot.is_planar else 3
+        if F.size != rows:
+            raise d._fail(f"residual_response.force: expected {rows} components")
+        disturbance = lambda q: jacf(q)[:rows].T @ F
+        what = f"force {vec(F)} on {spec.get('point', 'ee')}"
+    else:
+        raise d._fail("residual_response: give a torque, a fault or a force")
+    hold = spec.get("hold")
+    kp = d.number(hold.get("kp", 0.0), "hold.kp") if hold else 0.0
+    kd = d.number(hold.get("kd", 0.0), "hold.kd") if hold else 0.0
+    p0 = num_model.M(q0) @ dq0
+
+    def rhs(t, x, active):
+        q, dq, z, rf = x[:n], x[n:2 * n], x[2 * n:3 * n], x[3 * n:]
+        tau = num_model.g(q) + kp * (q0 - q) - kd * dq
+        td = disturbance(q) if active else np.zeros(n)
+        ddq = num_model.forward_dynamics(q, dq, tau + td)
+        r = K * (num_model.M(q) @ dq - p0 - z)
+        dz = tau + num_model.C(q, dq).T @ dq - num_model.g(q) + r
+        return np.concatenate([dq, ddq, dz, K * (td - rf)])
+
+    times = sorted(d.number(x, "at") for x in (spec.get("at") or []))
+    grid = np.unique(np.concatenate([np.linspace(0.0, T, 401), [t for t in times if 0 <= t <= T], [t_c]]))
+    x = np.concatenate([q0, dq0, np.zeros(2 * n)])
+    states = []
+    for lo, hi, active in ((0.0, t_c, False), (t_c, T, True)):
+        pts = grid[(grid >= lo) & (grid <= hi)]
+        if hi <= lo:
+            continue
+        sol = solve_ivp(rhs, (lo, hi), x, t_eval=pts, args=(active,), rtol=1e-10, atol=1e-12, method="DOP853")
+        if not sol.success:
+            raise d._fail(f"residual_response: the simulation failed ({sol.message})")
+        states += [(tt, sol.y[:, k]) for k, tt in enumerate(sol.t) if not states or tt > states[-1][0]]
+        x = sol.y[:, -1]
+    ts = np.array([s[0] for s in states])
+    X = np.array([s[1] for s in states])
+    resid = np.array([K * (num_model.M(xx[:n]) @ xx[n:2 * n] - p0 - xx[2 * n:3 * n]) for xx in X])
+    filt = X[:, 3 * n:]
+    steady = disturbance(q0)
+    dev = float(np.max(np.abs(resid - filt)))
+    ctx.step("Momentum residual", r"r = K\left(p(t) - p(0) - \int_0^t (\tau + C^T(q,\dot q)\dot q - g(q) + r)\,ds\right)\ \Rightarrow\ \dot r = K(\tau_d - r)",
+             f"Disturbance from t = {num(t_c)} s: {what}.", configuration={c: float(v) for c, v in zip(robot.coordinates, q0)})
+    ctx.step("Simulated response", rf"\max_t |r(t) - r_{{filter}}(t)| = {num(dev, 10)},\quad r(\infty) = \tau_d(t_c) = {vec(steady)}",
+             "The residual computed from the simulated motion equals the first-order filter of the disturbance: r(t) = (1 - exp(-K (t - t_c))) tau_d when tau_d is constant.")
+    ctx.answer(f"{name}_deviation", dev)
+    ctx.answer(f"{name}_steady", steady)
+    if times:
+        idx = [int(np.argmin(np.abs(ts - tt))) for tt in times]
+        ctx.answer(f"{name}_at", resid[idx])
+        ctx.answer(f"{name}_filter_at", filt[idx])
+        ctx.answer(f"{name}_closed_form_at", np.array([(1 - np.exp(-K * max(tt - t_c, 0.0))) * steady for tt in times]))
+        if "fault" in spec:
+            ctx.answer(f"{name}_fault_at", -resid[idx])
