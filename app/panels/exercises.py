@@ -392,7 +392,7 @@ class ExercisesPanel:
                     self.state["index"] = len(sol.steps) - 1          # the whole solution stays revealed
                 else:
                     self.state["index"] = min(self.index, len(sol.steps) - 1)
-            self._render()
+                self._render()
             self._apply_scene()
 
         self.session.run_in_background(work, f"Solving {ex.id}", on_done=done)
@@ -424,10 +424,14 @@ class ExercisesPanel:
             return
         with self._lock:
             self.state["index"] = max(-1, min(len(sol.steps) - 1, int(k)))
-        self._render()
-        self._redraw()
+            self._render()
+            self._redraw()
 
     def _render(self) -> None:
+        with self._lock:          # callbacks run in a thread pool: one rendering at a time
+            self._render_locked()
+
+    def _render_locked(self) -> None:
         ex, sol, k = self.exercise, self.solution, self.index
         self.download.disabled = sol is None
         if ex is None:
@@ -500,12 +504,12 @@ def _message(text: str, error: bool = False) -> str:
 
 # ====================================================================== pictures for the docs
 #: docs/screenshots/ pictures of this panel: (file, exercise ids to try in order, what to fall back
-#: on among the shipped exercises, title of the step shown)
+#: on among the shipped exercises, title of the step shown, camera zoom: mouse-wheel pixels)
 DOC_SHOTS = [
-    ("exercise_planar_rp.png", ["2004-03-25#1"], "planar RP", "Kinematics of link2"),
-    ("exercise_spatial_3r.png", ["2024-06-12#1", "2017-03-29-mid#1"], "spatial 3R", "Kinematics of link2"),
-    ("exercise_underactuated.png", ["2018-03-27#1"], "underactuated", "Reduced equation"),
-    ("exercise_sns.png", ["2020-06-05#1", "2019-04-29-mid#6"], "sns", "SNS solution"),
+    ("exercise_planar_rp.png", ["2004-03-25#1"], "planar RP", "Kinematics of link2", 0),
+    ("exercise_spatial_3r.png", ["2024-06-12#1", "2017-03-29-mid#1"], "spatial 3R", "Kinematics of link2", 1200),
+    ("exercise_underactuated.png", ["2018-03-27#1"], "underactuated", "Reduced equation", 0),
+    ("exercise_sns.png", ["2020-06-05#1", "2019-04-29-mid#6"], "sns", "SNS solution", 0),
 ]
 
 
@@ -531,13 +535,16 @@ def doc_exercise(candidates: List[str], kind: str) -> Optional[Exercise]:
     return next((ex for ex in exercises if _matches(ex, load_robot(ex.robot_ref), kind)), None)
 
 
-def save_screenshot(out, exercise_id: str, step_title: str, lab=None, browser=None, height: int = 900):
+def save_screenshot(out, exercise_id: str, step_title: str, zoom: int = 0, lab=None, browser=None,
+                    height: int = 960):
     """A walkthrough mid-way: the exercise open at the first step called ``step_title`` (its 3D
-    hints drawn), the side panel scrolled to that step."""
+    hints drawn), the side panel scrolled to that step, the camera moved closer by ``zoom``."""
     from app.viewer.screenshot import capture
     ex = load_exercise(exercise_id)
+    shown = {}
 
     def setup(session):
+        shown["session"] = session
         panel = session.state["exercises"]["panel"]
         panel.open(ex.id)
         deadline = 120
@@ -550,8 +557,16 @@ def save_screenshot(out, exercise_id: str, step_title: str, lab=None, browser=No
         panel.show(titles.index(step_title) if step_title in titles else len(titles) // 2)
 
     def action(page):
-        page.evaluate("() => document.querySelector('.r2-step[data-step]').scrollIntoView({block: 'center'})")
+        page.evaluate("() => document.querySelector('.r2-step[data-step]').scrollIntoView({block: 'end'})")
+        if zoom:                          # towards the middle of the robot
+            from app.viewer.screenshot import project
+            session = shown["session"]
+            centre = session.drawing.framing(session.q).center
+            x, y = project(session.client.camera, [centre])[0]
+            page.mouse.move(float(x), float(y))
+            page.mouse.wheel(0, -zoom)
         page.wait_for_timeout(600)
+        page.mouse.move(5, 5)
 
     return capture(ex.robot_ref, out, panel=TITLE, setup=setup, action=action, height=height, lab=lab,
                    browser=browser)
@@ -567,12 +582,12 @@ def save_doc_screenshots(out_dir=None) -> List[Path]:
     paths = []
     try:
         with Browser() as browser:
-            for filename, candidates, kind, step_title in DOC_SHOTS:
+            for filename, candidates, kind, step_title, zoom in DOC_SHOTS:
                 ex = doc_exercise(candidates, kind)
                 if ex is None:
                     print(f"skipped {filename}: no {kind} exercise shipped yet")
                     continue
-                paths.append(save_screenshot(out_dir / filename, ex.id, step_title, lab, browser))
+                paths.append(save_screenshot(out_dir / filename, ex.id, step_title, zoom, lab, browser))
                 print(f"{paths[-1]}  ({ex.id})")
     finally:
         lab.stop()
