@@ -28,7 +28,7 @@ import sympy as sp
 
 from .kinematics import Kinematics
 from .robot import KNOWN_KINDS, RobotModel
-from .steps import Step, to_latex
+from .steps import Step, shorthand_is_clear, to_latex
 from .trig import TrigPoly
 
 def _engine_version() -> str:
@@ -351,6 +351,7 @@ class _Deriver:
         self.known = list(known)
         self.angles = natural_angles(self.kin)
         self.masses = [p.symbol for p in robot.parameters.values() if p.kind == "mass"]
+        self.short_trig = shorthand_is_clear(robot.parameters)
 
     def quadratic_form(self, Mi) -> sp.Expr:
         """1/2 dq^T Mi dq written term by term: 1/2 m_jj dq_j^2 + m_jk dq_j dq_k."""
@@ -369,7 +370,7 @@ class _Deriver:
         return _matrix(rows, self.angles, self.masses)
 
     def L(self, expr) -> str:
-        return to_latex(expr, self.robot.coordinates)
+        return to_latex(expr, self.robot.coordinates, short_trig=self.short_trig)
 
     def step(self, title, latex, text="", bodies=(), joints=()):
         hl = {}

@@ -77,6 +77,17 @@ def set_coordinates(names) -> None:
 
 
 _INDEXED = re.compile(r"^([A-Za-z]+)(\d)$")
+_SHORTHAND_LIKE = re.compile(r"^[cs]_?\d+$")
+
+
+def shorthand_is_clear(parameter_names) -> bool:
+    """Whether the exam shorthand c_1 = cos q1, s_12 = sin(q1 + q2) can be used: not when a
+    parameter would print the same (a CoM distance called c1, say).
+
+    >>> shorthand_is_clear(["m1", "d1"]), shorthand_is_clear(["m1", "c1"])
+    (True, False)
+    """
+    return not any(_SHORTHAND_LIKE.match(name) for name in parameter_names)
 
 
 def _short_trig(expr, coords):
@@ -85,6 +96,8 @@ def _short_trig(expr, coords):
     matches = [_INDEXED.match(c) for c in coords]
     if not coords or not all(matches) or len({m.group(1) for m in matches}) != 1:
         return expr, {}
+    if not shorthand_is_clear(s.name for s in expr.free_symbols):
+        return expr, {}   # a parameter such as c1 would print like the shorthand
     index = {sp.Symbol(c, real=True): m.group(2) for c, m in zip(coords, matches)}
     repl, names = {}, {}
     for f in expr.atoms(sp.sin, sp.cos):

@@ -7,6 +7,7 @@ from typing import Callable, Dict, List, Tuple
 import numpy as np
 import sympy as sp
 
+from app.core.steps import shorthand_is_clear
 from app.viewer import mathml
 
 TITLE = "Model"
@@ -30,7 +31,7 @@ def build(session) -> None:
     dq_state = {"dq": np.ones(n)}
     updaters: List[Tuple[object, Callable[[], str]]] = []
 
-    short = mathml.shorthand_is_clear(robot.parameters)
+    short = shorthand_is_clear(robot.parameters)
 
     def blocks(name, matrix, entry, symmetric=False):
         return mathml.matrix_latex_blocks(name, matrix, coords, entry, symmetric=symmetric, short_trig=short)

@@ -161,16 +161,6 @@ def _group(s: str, i: int):
     return s[i + 1:], len(s)
 
 
-def shorthand_is_clear(parameter_names: Iterable[str]) -> bool:
-    """Whether the exam shorthand c_1 = cos q1, s_12 = sin(q1 + q2) can be used: not when a
-    parameter would print the same (a CoM distance called c1, say).
-
-    >>> shorthand_is_clear(["m1", "d1"]), shorthand_is_clear(["m1", "c1"])
-    (True, False)
-    """
-    return not any(re.match(r"^[cs]_?\d+$", name) for name in parameter_names)
-
-
 def sum_lines(lhs: str, expr, coordinates: Sequence[str], width_em: float = PANEL_WIDTH_EM,
               short_trig: bool = True) -> str:
     """LaTeX of ``lhs = expr`` broken over several lines at top-level + and - signs when too wide.
@@ -183,17 +173,17 @@ def sum_lines(lhs: str, expr, coordinates: Sequence[str], width_em: float = PANE
     expr = sp.sympify(expr)
     if estimate_width_em(full) <= width_em or not isinstance(expr, sp.Add):
         return full
-    lines = _break_sum(expr, coordinates, width_em, short_trig)
-    if max(estimate_width_em(line) for line in lines) > width_em:    # a factored term is too wide:
-        expanded = sp.expand(expr)                                 # break the expanded sum instead
-        if isinstance(expanded, sp.Add):
-            lines = _break_sum(expanded, coordinates, width_em, short_trig)
+    terms: List[sp.Expr] = []
+    for term in sp.Add.make_args(expr):     # keep the compact terms; expand only one too wide
+        wide = estimate_width_em(to_latex(term, coordinates, short_trig=short_trig)) > width_em - 2
+        terms.extend(sp.Add.make_args(sp.expand(term)) if wide else [term])
+    lines = _break_sum(terms, coordinates, width_em, short_trig)
     rows = [f"{lhs} & = {lines[0]}"] + [rf"& \quad {line}" for line in lines[1:]]
     return r"\begin{array}{rl}" + r"\\".join(rows) + r"\end{array}"
 
 
-def _break_sum(expr, coordinates, width_em, short_trig) -> List[str]:
-    terms = [to_latex(t, coordinates, short_trig=short_trig) for t in sp.Add.make_args(expr)]
+def _break_sum(terms, coordinates, width_em, short_trig) -> List[str]:
+    terms = [to_latex(t, coordinates, short_trig=short_trig) for t in terms]
     lines: List[str] = []
     current = ""
     for k, term in enumerate(terms):
