@@ -47,6 +47,14 @@ Values follow the conventions of ``kinematic`` (TaskData).
   filter of the simulated tau_d), ``closed_form_at`` (constant tau_d(t_c)), ``deviation`` (largest
   |residual - filter| along the run), ``steady`` (tau_d(t_c)), and with a fault ``fault_at``
   (-r, the residual with the sign that estimates u_f).
+``hybrid_control``: hybrid force/velocity law for a robot whose end-effector Jacobian J is constant
+  and invertible (Cartesian robots) in contact with a frictionless, compliant surface, in a planar
+  task frame rotated by ``angle`` (t: tangent, n: normal, the force-controlled axis). Symbolic: the
+  model M q'' = tau + tau_f becomes M_bar v' = tau_bar + f in the task frame (v = R^T J q',
+  f = (0, f_n)); the law tau_bar = M_bar (K_v (v_d - v_t), K_f ((f_d - f_n) - K_d v_n)) - f decouples
+  the two axes. Answers ``R``, ``M_bar`` (R^T J^-T M J^-1 R), ``tau_bar`` (R^T J^-T tau), ``tau_f``
+  (J^T R f), ``u`` (the joint torque law), ``closed_loop`` (v_t', v_n'), ``M_f`` (1/K_f, the
+  apparent mass of the normal impedance M_f d'' + K_d d' + K_n d = f_d), ``f_n_steady`` (f_d).
 ``force_capability``: ``point``, ``torque`` bounds, ``q``: the largest ||F|| sustainable in every
   direction, min_i T_i / ||J_i||. Answers ``force_max``, ``force_limiting_joint``, ``column_norms``.
 """
@@ -468,3 +476,43 @@ def residual_response_task(ctx, spec):
         ctx.answer(f"{name}_closed_form_at", np.array([(1 - np.exp(-K * max(tt - t_c, 0.0))) * steady for tt in times]))
         if "fault" in spec:
             ctx.answer(f"{name}_fault_at", -resid[idx])
+
+
+@task("hybrid_control")
+def hybrid_control_task(ctx, spec):
+    """Task-frame hybrid force/velocity law for a Cartesian robot on a compliant surface."""
+    d = data(ctx)
+    robot = d.robot
+    if robot.n != 2 or not robot.is_planar:
+        raise d._fail("hybrid_control: a planar robot with two joints")
+    dyn = ctx.dynamics()
+    J = jac.jacobian(robot, spec.get("point", "ee"), ["x", "y"])
+    if J.free_symbols & set(robot.q) or dyn.M.free_symbols & set(robot.q) or any(e != 0 for e in dyn.g) or J.det() == 0:
+        raise d._fail("hybrid_control: needs a constant invertible Jacobian, a constant inertia matrix and no gravity (a Cartesian robot)")
+    a = d.expression(str(spec.get("angle", "alpha")), "angle")
+    c, s = sp.cos(a), sp.sin(a)
+    R = sp.Matrix([[c, -s], [s, c]])
+    Ji = J.inv()
+    M_bar = (R.T * Ji.T * dyn.M * Ji * R).applyfunc(sp.simplify)
+    tau = sp.Matrix(sp.symbols("tau1 tau2", real=True))
+    v_t, v_n, f_n, v_d, f_d, K_v, K_f, K_d = sp.symbols("v_t v_n f_n v_d f_d K_v K_f K_d", real=True)
+    f = sp.Matrix([0, f_n])
+    tau_bar = (R.T * Ji.T * tau).applyfunc(sp.expand)
+    acc = sp.Matrix([K_v * (v_d - v_t), K_f * ((f_d - f_n) - K_d * v_n)])
+    tau_f = (J.T * R * f).applyfunc(sp.expand)
+    u = (J.T * R * (M_bar * acc - f)).applyfunc(sp.simplify)
+    ctx.step("Task frame", r"R = " + sp.latex(R) + r",\quad v = R^T J \dot q,\quad \tau_f = J^T R f,\ f = " + sp.latex(f),
+             "Frictionless surface: the environment reacts only along the normal n; compliant: v_n = delta_n', f_n = K_n delta_n.")
+    ctx.step("Model in the task frame", r"\bar M \dot v = \bar\tau + f,\quad \bar M = " + sp.latex(M_bar) + r",\quad \bar\tau = " + sp.latex(tau_bar),
+             "Linear but coupled between t and n when the frame is not aligned with the joints.")
+    ctx.step("Decoupling law", r"\bar\tau = \bar M " + sp.latex(acc) + r" - f\ \Rightarrow\ \dot v = " + sp.latex(acc),
+             "Exponential convergence of the tangential velocity; along n: M_f delta'' + K_d delta' + K_n delta = f_d with M_f = 1/K_f, so f_n -> f_d.")
+    ctx.step("Joint torques", r"\tau = J^T R \bar\tau = " + sp.latex(u), "")
+    ctx.answer("R", R)
+    ctx.answer("M_bar", M_bar)
+    ctx.answer("tau_bar", tau_bar)
+    ctx.answer("tau_f", tau_f)
+    ctx.answer("u", u)
+    ctx.answer("closed_loop", acc)
+    ctx.answer("M_f", 1 / K_f)
+    ctx.answer("f_n_steady", f_d)
