@@ -2,7 +2,8 @@
 NAME = "screenshot"
 HELP = "save a picture of the page (headless Chromium)"
 DESCRIPTION = ("Start the lab in-process, open it in headless Chromium (Debian's /usr/bin/chromium), "
-               "select a robot and a panel, and save a PNG. --all-docs regenerates docs/screenshots/.")
+               "select a robot and a panel, and save a PNG. --all-docs regenerates docs/screenshots/ (the list "
+               "below, then every panel module's save_doc_screenshots(out_dir)).")
 
 #: the pictures in docs/screenshots/: (file, robot, panel, coordinates or None, step index or None)
 DOC_SHOTS = [
@@ -104,4 +105,16 @@ def _all_docs() -> int:
                 print(f"{path}  ({robot})")
     finally:
         lab.stop()
+    for module in _panel_modules_with_pictures():     # pictures that need a panel's own set-up
+        for path in module.save_doc_screenshots(out_dir):
+            print(f"{path}  ({module.__name__})")
     return 0
+
+
+def _panel_modules_with_pictures():
+    """Panel modules that define ``save_doc_screenshots(out_dir)`` (their own docs pictures)."""
+    import importlib
+
+    from app.panels import discover_panels
+    modules = [importlib.import_module(f"app.panels.{spec.name}") for spec in discover_panels()]
+    return [m for m in modules if callable(getattr(m, "save_doc_screenshots", None))]
