@@ -95,8 +95,17 @@ def tidy(expr, angles: Sequence = ()) -> sp.Expr:
         d = den_tp.to_expr()
         if d == 0:
             raise ZeroDivisionError("denominator is zero")
-        num_tp = TrigPoly({k: sp.factor(sp.cancel(c / d)) for k, c in num_tp.terms.items()})
-        return pretty(num_tp, angles)
+        if d.is_number:
+            return pretty(TrigPoly({k: c / d for k, c in num_tp.terms.items()}), angles)
+        # polynomial part + remainder / d, the way the results are written by hand
+        gens = sorted(d.free_symbols, key=lambda x: x.name)
+        quot, rem = {}, {}
+        for k, c in num_tp.terms.items():
+            qk, rk = sp.div(sp.expand(c), d, *gens)
+            quot[k], rem[k] = qk, rk
+        rem_tp = TrigPoly(rem)
+        whole = pretty(TrigPoly(quot), angles)
+        return whole + (pretty(rem_tp, angles) / d if rem_tp.terms else 0)
     return pretty(num_tp, angles) / pretty(den_tp, angles)
 
 
