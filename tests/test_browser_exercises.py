@@ -67,7 +67,7 @@ def test_units_of_answers_and_profile_sketch():
     assert "N</mi>" in html or "N</mtext>" in html or ">N<" in html
     assert html.count("<math") == 1                                            # the symbolic one is left out
     svg = profile_svg({"kind": "trapezoidal", "T": 2.0, "Ts": 0.5, "V": 1.0, "A": 2.0})
-    assert svg.startswith("<svg") and "T=2 s" in svg
+    assert svg.startswith("<svg") and "T = 2 s" in svg and svg.count("stroke-dasharray") == 2
     assert paragraphs("a\nb\n(b) c\n") == ["a b", "(b) c"]
 
 
@@ -239,11 +239,23 @@ def test_open_an_exercise_and_reveal_its_steps(lab, browser):
         wait_until(lambda: panel.index == 0, what="one step back")
         click(page, "Show all")
         page.get_by_text(f"{count} of {count} steps revealed").first.wait_for()
+        step_last = panel.solution.steps[-1]
         page.get_by_text("Numeric answers").first.wait_for()
         with page.expect_download() as download:
             click(page, "Download the solution (Markdown)")
         text = open(download.value.path(), encoding="utf-8").read()
         assert text.startswith("# 2004-03-25#1") and "$$" in text and "Kinematics of link1" in text
+        # another robot picked by hand: the exercise waits, a button brings its robot back
+        shots.field(page, "Robot").click()
+        page.get_by_role("option", name="Planar 2R arm (vertical plane)", exact=True).click()
+        shots.wait_ready(page, "planar_2r")
+        back = page.get_by_role("button", name="Show the exercise's robot")
+        back.wait_for()
+        assert session.robot_name == "planar_2r" and not session.scene.highlighted["bodies"]
+        back.click()
+        shots.wait_ready(page, "rp_2004_03_25")
+        wait_until(lambda: session.scene.highlighted["bodies"] == list(step_last.highlight.get("bodies", [])),
+                   what="the last step lit again")
     finally:
         page.context.close()
 

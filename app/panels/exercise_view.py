@@ -139,10 +139,12 @@ def _top_level_breaks(latex: str) -> List[tuple]:
                 i += len(m.group(0))
                 last = "x"
                 continue
-            if ch == "{":
+            if ch in "{([":
                 depth += 1
-            elif ch == "}":
+            elif ch in "})]":
                 depth -= 1
+            elif depth == 0 and ch == ",":
+                out.append((i, ch))
             elif depth == 0 and ch in "=+-" and (ch == "=" or last not in ("", "=", "+", "-", "(", ",", "&")):
                 out.append((i, ch))
             if not ch.isspace():
@@ -157,6 +159,8 @@ def wrap_latex(latex: str, width_em: float = mathml.PANEL_WIDTH_EM) -> str:
 
     >>> wrap_latex("y = a + b")
     'y = a + b'
+    >>> wrap_latex(r"T = 1.2165,\\ T_s = 0.3041,\\ V = 1.096,\\ A = 3.6037", 12)
+    '\\\\begin{array}{l}T = 1.2165,\\\\\\\\T_s = 0.3041,\\\\\\\\V = 1.096,\\\\\\\\A = 3.6037\\\\end{array}'
     >>> wrap_latex("y = " + " + ".join(f"x_{{{k}}}" for k in range(30)), 20)[:36]
     '\\\\begin{array}{rl}y & = x_{0} + x_{1}'
     >>> wrap_latex("y = " + " + ".join(f"x_{{{k}}}" for k in range(30)), 20).count(r"\\quad + ") > 2
@@ -165,6 +169,23 @@ def wrap_latex(latex: str, width_em: float = mathml.PANEL_WIDTH_EM) -> str:
     if _width(latex) <= width_em:
         return latex
     breaks = _top_level_breaks(latex)
+    commas = [i for i, ch in breaks if ch == ","]
+    if commas:                 # a list (a = 1, b = 2, ...): items on lines, each wrapped if needed
+        items = [latex[a:b].strip().lstrip(",").strip() for a, b in zip([0] + commas, commas + [len(latex)])]
+        items = [re.sub(r"^(\\[ ,;:!]|\\q?quad)\s*", "", it) for it in items if it]
+        lines, current = [], ""
+        for it in items:
+            if current and _width(current + r",\ " + it) > width_em:
+                lines.append(current)
+                current = it
+            else:
+                current = f"{current},\\ {it}" if current else it
+        lines.append(current)
+        if len(lines) == 1:
+            return latex
+        return r"\begin{array}{l}" + r"\\".join(wrap_latex(l + ("," if k < len(lines) - 1 else ""), width_em)
+                                                 for k, l in enumerate(lines)) + r"\end{array}"
+    breaks = [(i, ch) for i, ch in breaks if ch != ","]
     if not breaks:
         return latex
     pieces, start, sym = [], 0, ""
@@ -202,7 +223,52 @@ def step_html(step, index: int, count: int, current: bool = False, arrow_scale: 
             + (f'<div style="font-size:0.87em;color:#333">{html.escape(step.text)}</div>' if step.text else "")
             + "".join(mathml.math_html(wrap_latex(p)) for p in parts)
             + (profile_svg(profile) if isinstance(profile, dict) else "")
+            + (phase_plane_svg(step.highlight["phase_plane"]) if isinstance(step.highlight.get("phase_plane"), dict) else "")
             + (hint_legend(step.highlight, arrow_scale) if current else "") + "</div>")
+
+
+def plot_svg(series, x_label: str, y_label: str, vlines=(), y_max: Optional[float] = None,
+             width: int = 330, height: int = 130, css_class: str = "r2-plot") -> str:
+    """A small line plot as inline SVG (scripts do not run in the panel's HTML): ``series`` is
+    [(xs, ys, colour, label, dashed)], ``vlines`` x positions marked with dashed lines."""
+    xs_all = np.concatenate([np.asarray(x, float) for x, *_ in series])
+    ys_all = np.concatenate([np.asarray(y, float) for _, y, *_ in series])
+    finite = np.isfinite(ys_all)
+    if not finite.any() or not np.isfinite(xs_all).all():
+        return ""
+    x0, x1 = float(xs_all.min()), float(xs_all.max())
+    top = y_max if y_max is not None else float(np.max(np.abs(ys_all[finite])))
+    if not x1 > x0 or not top > 0:
+        return ""
+    pad_l, pad_r, pad_b, pad_t = 38, 8, 18, 12
+    y0 = height - pad_b
+
+    def X(x):
+        return pad_l + (width - pad_l - pad_r) * (np.asarray(x, float) - x0) / (x1 - x0)
+
+    def Y(y):
+        return pad_t + (y0 - pad_t) * (1 - np.clip(np.asarray(y, float), 0, top) / top)
+
+    body = ""
+    for v in vlines:
+        body += f'<line x1="{X(v):.1f}" y1="{pad_t}" x2="{X(v):.1f}" y2="{y0}" stroke="#bbb" stroke-dasharray="3,3"/>'
+    legend = ""
+    for k, (xs, ys, color, label, dashed) in enumerate(series):
+        ok = np.isfinite(np.asarray(ys, float))
+        pts = " ".join(f"{a:.1f},{b:.1f}" for a, b in zip(X(np.asarray(xs, float)[ok]), Y(np.asarray(ys, float)[ok])))
+        dash = ' stroke-dasharray="5,3"' if dashed else ""
+        body += f'<polyline points="{pts}" fill="none" stroke="{color}" stroke-width="2"{dash}/>'
+        if label:
+            legend += (f'<text x="{width - pad_r - 4}" y="{pad_t + 4 + 11 * k}" font-size="10" fill="{color}" '
+                       f'text-anchor="end">{html.escape(label)}</text>')
+    return (f'<svg class="{css_class}" width="{width}" height="{height}" style="display:block;margin:4px 0">'
+            f'<line x1="{pad_l}" y1="{y0}" x2="{width - 4}" y2="{y0}" stroke="#555"/>'
+            f'<line x1="{pad_l}" y1="{pad_t - 4}" x2="{pad_l}" y2="{y0}" stroke="#555"/>{body}{legend}'
+            f'<text x="{pad_l - 4}" y="{pad_t + 4}" font-size="10" fill="#333" text-anchor="end">{top:.3g}</text>'
+            f'<text x="{pad_l - 4}" y="{y0}" font-size="10" fill="#333" text-anchor="end">0</text>'
+            f'<text x="{pad_l + 4}" y="{pad_t - 2}" font-size="10" fill="#666">{html.escape(y_label)}</text>'
+            f'<text x="{width - 4}" y="{height - 4}" font-size="10" fill="#333" text-anchor="end">'
+            f'{html.escape(x_label)}</text></svg>')
 
 
 def profile_svg(profile: Dict[str, float], width: int = 330, height: int = 120) -> str:
@@ -212,35 +278,35 @@ def profile_svg(profile: Dict[str, float], width: int = 330, height: int = 120) 
         return ""
     Ts = float(profile.get("Ts") or 0.0)
     t = np.linspace(0, T, 121)
+    x = t / T
     if kind in ("bang_bang", "trapezoidal") and Ts > 0:
         v = np.where(t < Ts, V * t / Ts, np.where(t < T - Ts, V, V * (T - t) / Ts))
     elif kind == "cubic":
-        x = t / T
         v = V * 4 * x * (1 - x)
     elif kind == "quintic":
-        x = t / T
         v = V * 16 * x ** 2 * (1 - x) ** 2
     else:
         return ""
-    top = max(abs(V), 1e-12)
-    pad_l, pad_b, pad_t = 34, 18, 10
-    X = pad_l + (width - pad_l - 8) * t / T
-    Y = pad_t + (height - pad_t - pad_b) * (1 - np.abs(v) / top)
-    pts = " ".join(f"{x:.1f},{y:.1f}" for x, y in zip(X, Y))
-    y0 = height - pad_b
-    marks = ""
-    if kind in ("bang_bang", "trapezoidal") and Ts > 0:
-        for ts in sorted({Ts, T - Ts}):
-            xs = pad_l + (width - pad_l - 8) * ts / T
-            marks += f'<line x1="{xs:.1f}" y1="{pad_t}" x2="{xs:.1f}" y2="{y0}" stroke="#bbb" stroke-dasharray="3,3"/>'
-    return (f'<svg class="r2-profile" width="{width}" height="{height}" style="display:block;margin:4px 0">'
-            f'<line x1="{pad_l}" y1="{y0}" x2="{width - 4}" y2="{y0}" stroke="#555"/>'
-            f'<line x1="{pad_l}" y1="{pad_t - 4}" x2="{pad_l}" y2="{y0}" stroke="#555"/>{marks}'
-            f'<polyline points="{pts}" fill="none" stroke="{ACCENT}" stroke-width="2"/>'
-            f'<text x="4" y="{pad_t + 4}" font-size="10" fill="#333">{abs(V):.3g}</text>'
-            f'<text x="{pad_l - 10}" y="{height - 4}" font-size="10" fill="#333">0</text>'
-            f'<text x="{width - 40}" y="{height - 4}" font-size="10" fill="#333">T={T:.3g} s</text>'
-            f'<text x="{pad_l + 4}" y="{pad_t + 2}" font-size="10" fill="#666">|velocity|</text></svg>')
+    marks = sorted({Ts, T - Ts}) if kind in ("bang_bang", "trapezoidal") and Ts > 0 else []
+    return plot_svg([(t, np.abs(v), ACCENT, "", False)], f"t [s], T = {T:.3g} s", "|velocity|", marks,
+                    width=width, height=height, css_class="r2-profile")
+
+
+def phase_plane_svg(plane: Dict[str, Any]) -> str:
+    """The phase plane of a time-optimal path motion: s'(s) of the optimum, the backward
+    (controllable) curve and the maximum-velocity curve, switching points dashed."""
+    s = np.asarray(plane.get("s", []), float)
+    if s.size < 2:
+        return ""
+    curves = [(plane.get("mvc"), "#d62728", "MVC", True), (plane.get("backward"), "#999999", "backward", False),
+              (plane.get("sdot"), ACCENT, "optimal s'", False)]
+    series = [(s, np.asarray(y, float), c, label, dashed) for y, c, label, dashed in curves
+              if y is not None and len(y) == s.size]
+    if not series:
+        return ""
+    reached = np.concatenate([y[np.isfinite(y)] for _, y, c, label, _ in series if label != "MVC"] or [np.zeros(1)])
+    top = 1.6 * float(reached.max()) if reached.size and reached.max() > 0 else None
+    return plot_svg(series, "s", "s'", plane.get("switches") or [], y_max=top, css_class="r2-phase")
 
 
 # ---------------------------------------------------------------------- answers

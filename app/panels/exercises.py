@@ -211,7 +211,9 @@ class ExercisesPanel:
         self.notes.content = notes_html(ex.notes)
         self._build_fields(ex, robot)
         self._render()
-        if self._ensure_robot():
+        if keep and self.session.robot_name != ex.robot_ref:    # rebuilt while another robot is shown
+            self.back_button.visible = True
+        elif self._ensure_robot():
             self._apply_scene()
         if not keep or self.solution is None:
             self._solve(dict(self.state.get("values") or {}))
