@@ -140,7 +140,8 @@ class ExercisesPanel:
         with self.variant_folder:
             self.variant_help = gui.add_html(mathml.label_html(
                 "Type other values (numbers, expressions such as pi/4, lists like the originals) and "
-                "press Solve."))
+                "press Solve. Symbolic steps keep the robot's parameters as symbols: their numbers change "
+                "the numeric steps and the drawing."))
             self.variant_buttons = gui.add_button_group("", ("Solve this variant", "Exam's numbers"))
         self.nav = gui.add_button_group("", ("◀ Previous", "Next ▶", "Show all"))
         self.status = gui.add_html("")
