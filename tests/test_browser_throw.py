@@ -1,6 +1,7 @@
 """The Throw studio in the real page (headless Chromium): a thesis throw flies to its landing
 marker, throw three and edits that break the throw are flagged with a message while the last good
-throw stays, and a control point can be dragged with the mouse."""
+throw stays, and a control point can be dragged with the mouse. The last tests check what the
+studio draws without a browser (limit bands, equilibria, the ball's flight, the camera)."""
 import colorsys
 import time
 from dataclasses import replace
@@ -38,7 +39,7 @@ def open_studio(lab, browser, hide=True):
     lab.initial_robot = "throwing_arm"
     page = browser.page(lab.url, height=900)
     shots.wait_ready(page, "throwing_arm")
-    session = shots._new_session(lab, before)
+    session = shots.new_session(lab, before)
     if hide:
         shots.hide_notifications(page)
     shots.select_tab(page, "Throw studio")
@@ -210,3 +211,95 @@ def test_a_control_point_is_dragged_with_the_mouse(lab, browser):
         assert badge(page, "infeasible")       # b3 lowered: joint 1 too fast
     finally:
         page.context.close()
+
+
+# ---------------------------------------------------------------------- what the studio draws (no browser)
+@pytest.fixture(scope="module")
+def view_one(arm):
+    from app.panels.throw_plots import evaluate
+    return evaluate(arm, thesis_throw("throw1"))
+
+
+def test_speed_plot_fills_exactly_the_part_over_the_limit(view_one):
+    from app.panels.throw_plots import speeds_plot
+    plot = speeds_plot(view_one)
+    tr, limit = view_one.samples, view_one.throw.arm.limits["speed"]
+    ratios = np.abs(tr.dq) / limit[:, None]
+    assert [s["label"] for s in plot.series[:4]] == ["t [s]", "|q̇1| / 1.92", "|q̇2| / 2.23", "|q̇3| / 3.21"]
+    for i in range(3):
+        assert np.allclose(plot.data[1 + i], ratios[i])
+    line, beyond = plot.data[4], plot.data[5]
+    assert np.all(line == 1.0) and plot.bands == ({"series": (5, 4), "fill": plot.bands[0]["fill"]},)
+    over = ratios.max(axis=0) > 1.0
+    assert over.any() and np.all((beyond > 1.0) == over)          # throw one is too fast for q2 and q3
+    assert np.max(beyond) == pytest.approx(max(r for r in view_one.feasibility.max_speed_ratio), rel=2e-3)
+    lo, hi = plot.y_range
+    assert lo <= 0.0 and hi > np.max(beyond)
+
+
+def test_torque_plot_marks_throw_two_over_its_limit(arm):
+    from app.panels.throw_plots import evaluate, torques_plot
+    view = evaluate(arm, thesis_throw("throw2"))
+    plot = torques_plot(view)
+    tau = view.samples.tau
+    L1, L2 = arm.limits["torque"]
+    # per joint: +limit line, beyond it, -limit line, beyond it
+    up1, beyond_up1, down1, beyond_down1 = plot.data[3:7]
+    assert np.all(up1 == L1) and np.all(down1 == -L1)
+    excess = max(np.max(beyond_up1) - L1, -L1 - np.min(beyond_down1))
+    assert excess == pytest.approx(np.max(np.abs(tau[0])) - L1) and excess > 5.0
+    assert np.all(plot.data[7] == L2) and np.all(plot.data[9] == -L2)
+    assert np.max(np.abs(tau[1])) < L2                                       # joint 2 stays within:
+    assert np.all(plot.data[8] == L2) and np.all(plot.data[10] == -L2)      # nothing beyond its lines
+
+
+def test_phase_plot_marks_the_equilibria_and_the_throw(view_one):
+    from app.panels.throw_plots import phase_plot
+    plot = phase_plot(view_one)
+    pp = view_one.portrait
+    labels = [s["label"] for s in plot.series]
+    centres, saddles = plot.data[labels.index("centre")], plot.data[labels.index("saddle")]
+    want_c = [e.theta for e in pp.equilibria if e.kind == "center"]
+    want_s = [e.theta for e in pp.equilibria if e.kind == "saddle"]
+    assert len(want_c) == 1 and len(want_s) == 1            # throw one's reduced dynamics: a centre, a saddle
+    step = pp.theta[1] - pp.theta[0]
+    for marks, want in ((centres, want_c), (saddles, want_s)):
+        got = pp.theta[np.isfinite(marks)]
+        assert np.allclose(got, want, atol=step / 2) and np.all(marks[np.isfinite(marks)] == 0.0)
+    own = plot.data[labels.index("this throw")]
+    spec = view_one.spec
+    inside = (pp.theta >= spec.theta_b) & (pp.theta <= spec.theta_e)
+    assert np.all(np.isfinite(own) == inside)
+    assert np.allclose(own[inside], view_one.throw.theta_dot(pp.theta[inside]))
+    assert plot.y_range[1] > np.nanmax(own) and plot.y_range[0] == -plot.y_range[1]
+
+
+def test_the_ball_leaves_the_hand_and_lands_on_the_marker(view_one):
+    from app.panels.throw_plots import ball_at
+    T = view_one.duration
+    _q, at_release = ball_at(view_one, T)
+    _q, just_after = ball_at(view_one, T + 1e-6)
+    assert np.allclose(at_release, view_one.release.position, atol=1e-9)
+    assert np.linalg.norm(just_after - at_release) < 1e-5
+    q_end, landed = ball_at(view_one, T + view_one.flight_time() + 1.0)
+    assert landed[1] == 0.0 and landed[0] == pytest.approx(view_one.release.distance_from_base, abs=1e-9)
+    assert np.allclose(q_end, view_one.samples.q[:, -1])                    # the arm holds its release pose
+
+
+def test_camera_frames_the_whole_throw_beside_the_side_panel():
+    from types import SimpleNamespace
+
+    from app.panels.throw_scene import FOV, throw_camera
+    region = (-1.0, 3.4, -1.9, 2.4)
+    for width, height in ((1280, 720), (1280, 1000), (1920, 1080)):
+        position, look_at, up = throw_camera(region, width, height)
+        assert np.allclose(position[:2], look_at[:2]) and position[2] > 0 and np.allclose(up, [0, 1, 0])
+        # looking along -z with y up: OpenCV camera axes right (1,0,0), down (0,-1,0), forward (0,0,-1)
+        camera = SimpleNamespace(wxyz=(0.0, 1.0, 0.0, 0.0), position=np.asarray(position), fov=FOV,
+                                 image_width=width, image_height=height)
+        x0, x1, y0, y1 = region
+        px = shots.project(camera, [[x0, y0, 0], [x1, y0, 0], [x0, y1, 0], [x1, y1, 0]])
+        assert px[:, 0].min() >= 0 and px[:, 0].max() <= width - 400          # not under the side panel
+        assert px[:, 1].min() >= 0 and px[:, 1].max() <= height
+        centre = shots.project(camera, [[(x0 + x1) / 2, (y0 + y1) / 2, 0]])[0]
+        assert centre[0] == pytest.approx((width - 400) / 2, abs=1.0)         # centred in the visible part

@@ -149,7 +149,6 @@ class ThrowStudio:
         self.state["studio"] = self
         self._compute_now()           # the first throw is on the page when the tab appears
         session.on_parameters_change(self._parameters_changed)
-        session.on_robot_change(self._robot_changed)
         self._start_animation_thread()
 
     # ================================================================== widgets
@@ -453,10 +452,6 @@ class ThrowStudio:
         self._params_seen = dict(values)
         self.request()          # the model changed, not the throw
 
-    def _robot_changed(self, _robot) -> None:
-        if not self._alive():
-            self.close()
-
     # ================================================================== loading
     def load(self, name: str) -> None:
         """Load a shipped throw (``throw1``, ``optimized_thesis``, ...) or a throw file, then play it."""
@@ -544,8 +539,9 @@ class ThrowStudio:
         self._redraw_chart(values, view.spec)
         with session.client.atomic():
             self.drawing.show(view)
-            session.scene.ghost(view.samples.q[:, 0], "throw_start", color=(150, 150, 150), opacity=0.25)
-            session.scene.ghost(view.samples.q[:, -1], "throw_release", color=(150, 150, 150), opacity=0.25)
+            for name, q in (("throw_start", view.samples.q[:, 0]), ("throw_release", view.samples.q[:, -1])):
+                if self._owns_robot():
+                    session.scene.ghost(q, name, color=(150, 150, 150), opacity=0.25)
         end = self.drawing.end_time()
         self.time.max = max(round(end + 0.0005, 3), 0.01)
         with self._anim_lock:
@@ -618,12 +614,23 @@ class ThrowStudio:
     def _show_time(self, t: float) -> None:
         with self.session.client.atomic():
             q = self.drawing.at(t)
-            if q is None:
-                return
-            if t <= 0.0:
-                self.session.set_q(q)          # at the start the joint sliders follow the robot
-            else:
-                self.session.scene.set_pose(q)
+            if q is not None:
+                self._pose(q, sliders=t <= 0.0)
+
+    def _owns_robot(self) -> bool:
+        """Whether the tab still shows this studio's robot (checked right before touching it: the
+        user may switch the robot while a throw is solved or played)."""
+        drawing = self.session.scene.drawing
+        return self._alive() and drawing is not None and drawing.robot is self.robot
+
+    def _pose(self, q, sliders: bool = False) -> None:
+        """The robot at q; with ``sliders`` the joint sliders follow (at the throw's start)."""
+        if not self._owns_robot():
+            return
+        if sliders:
+            self.session.set_q(q)
+        else:
+            self.session.scene.set_pose(q)
 
     def _play_clicked(self, event) -> None:
         value = event.target.value
@@ -655,6 +662,15 @@ class ThrowStudio:
         self._thread.start()
 
     def _animate(self) -> None:
+        """Plays the throw while the studio lives; when the robot is switched away (this panel's
+        listeners are dropped then), it removes the studio's drawings."""
+        try:
+            self._animation_loop()
+        finally:
+            if not self.closed and not self.session.closed:
+                self.close()
+
+    def _animation_loop(self) -> None:
         last = time.monotonic()
         while self._alive():
             time.sleep(1.0 / FPS)
@@ -674,7 +690,7 @@ class ThrowStudio:
                     with self.session.client.atomic():
                         q = self.drawing.at(t)
                         if q is not None:
-                            self.session.scene.set_pose(q)
+                            self._pose(q)
                 except Exception:      # widgets or nodes removed by a rebuild: stop quietly
                     return
 
@@ -794,7 +810,8 @@ class ThrowStudio:
             self.session.notify("Nothing to download", str(exc), error=True)
             return
         data = {"title": self._plain_title(), **spec.to_config()}
-        event.client.send_file_download("throw.yaml", yaml.safe_dump(data, sort_keys=False).encode("utf-8"))
+        event.client.send_file_download("throw.yaml", yaml.safe_dump(data, sort_keys=False).encode("utf-8"),
+                                         save_immediately=True)
 
     def _plain_title(self) -> str:
         title = self.config.title or "Throw"
@@ -833,7 +850,7 @@ DOC_SHOTS = {
 
 def save_doc_screenshots(out_dir=None, lab=None, browser=None) -> List[Path]:
     """Regenerate this panel's pictures in docs/screenshots/ (headless Chromium)."""
-    from app.viewer.screenshot import Browser, _new_session, hide_notifications, select_tab, settle, wait_ready
+    from app.viewer.screenshot import Browser, hide_notifications, new_session, select_tab, settle, wait_ready
     from app.viewer.server import LabServer
 
     out_dir = Path(out_dir or Path(__file__).resolve().parents[2] / "docs" / "screenshots")
@@ -853,7 +870,7 @@ def save_doc_screenshots(out_dir=None, lab=None, browser=None) -> List[Path]:
             page.goto(lab.url)
             try:
                 wait_ready(page, "throwing_arm")
-                session = _new_session(lab, before)
+                session = new_session(lab, before)
                 hide_notifications(page)
                 select_tab(page, TITLE)
                 studio = session.state["throw"]["studio"]

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import threading
+import warnings
 from typing import Dict, Optional, Tuple
 
 import numpy as np
@@ -116,10 +117,12 @@ class Nodes:
 
 
 def _remove(handle) -> None:
-    try:
-        handle.remove()
-    except Exception:     # already gone (its parent was removed, or the tab closed)
-        pass
+    with warnings.catch_warnings():       # viser warns about nodes already replaced or removed
+        warnings.simplefilter("ignore")
+        try:
+            handle.remove()
+        except Exception:     # already gone (its parent was removed, or the tab closed)
+            pass
 
 
 # ====================================================================== camera
