@@ -248,13 +248,18 @@ class SceneView:
                     handle.remove()
 
     # ------------------------------------------------------------------ overlays
-    def _put(self, name: str, handle) -> object:
+    def _node(self, name: str) -> str:
+        """Scene path of an overlay; an overlay of the same name is removed first, so that removing
+        the old handle can never touch its replacement."""
         old = self._overlays.pop(name, None)
-        if old is not None and old is not handle:
+        if old is not None:
             try:
                 old.remove()
             except Exception:     # already removed with its parent
                 pass
+        return f"{OVERLAY_ROOT}/{name}"
+
+    def _put(self, name: str, handle) -> object:
         self._overlays[name] = handle
         return handle
 
@@ -262,7 +267,7 @@ class SceneView:
                    label: Optional[str] = None):
         """A small sphere (and optional text) at a world position."""
         r = radius or (1.3 * self.drawing.radius if self.drawing else 0.03)
-        handle = self.scene.add_icosphere(f"{OVERLAY_ROOT}/{name}", radius=r, color=color,
+        handle = self.scene.add_icosphere(self._node(name), radius=r, color=color,
                                           position=tuple(np.asarray(position, float)))
         self._put(name, handle)
         if label:
@@ -273,7 +278,7 @@ class SceneView:
         """A polyline through world points (N x 3)."""
         pts = np.asarray(points, dtype=np.float32).reshape(-1, 3)
         segments = np.stack([pts[:-1], pts[1:]], axis=1)
-        handle = self.scene.add_line_segments(f"{OVERLAY_ROOT}/{name}", segments, colors=color,
+        handle = self.scene.add_line_segments(self._node(name), segments, colors=color,
                                               thickness=width, thickness_units="screen")
         return self._put(name, handle)
 
@@ -285,7 +290,7 @@ class SceneView:
         """A solid arrow (force, velocity) from ``start`` along ``vector`` (world coordinates)."""
         r = 0.5 * (self.drawing.radius if self.drawing else 0.02)
         mesh = arrow(start, vector, r)
-        handle = self.scene.add_mesh_simple(f"{OVERLAY_ROOT}/{name}", mesh.vertices.astype(np.float32),
+        handle = self.scene.add_mesh_simple(self._node(name), mesh.vertices.astype(np.float32),
                                             mesh.faces.astype(np.uint32), color=color,
                                             cast_shadow=False, receive_shadow=False)
         self._put(name, handle)
@@ -294,7 +299,7 @@ class SceneView:
         return handle
 
     def add_label(self, name: str, text: str, position):
-        handle = self.scene.add_label(f"{OVERLAY_ROOT}/{name}", text, position=tuple(np.asarray(position, float)),
+        handle = self.scene.add_label(self._node(name), text, position=tuple(np.asarray(position, float)),
                                       anchor="bottom-left")
         return self._put(name, handle)
 
