@@ -31,7 +31,7 @@ from app.core.vhc import (REQUIRED_PARAMETERS, ThrowConfig, ThrowingArm, ThrowOp
 from app.viewer.session import Coalescer
 
 from .throw_chart import BezierChart
-from .throw_plots import (ThrowView, angles_plot, badge_html, evaluate, feasibility_badge, phase_plot,
+from .throw_plots import (BLOCK, ThrowView, angles_plot, badge_html, evaluate, feasibility_badge, phase_plot,
                           speeds_plot, summary_html, torques_plot, verification_html)
 from .throw_scene import FOV, Nodes, ThrowDrawing, throw_camera
 
@@ -154,7 +154,7 @@ class ThrowStudio:
     # ================================================================== widgets
     def _build(self) -> None:
         gui = self.gui
-        gui.add_html('<div class="r2-label" style="font-size:0.8em;color:#444">A throw planned with virtual '
+        gui.add_html(f'<div class="r2-label" style="font-size:0.8em;color:#444;{BLOCK}">A throw planned with virtual '
                      'holonomic constraints q1 = φ1(θ), q2 = φ2(θ) (Bézier curves); the spring wrist q3 follows. '
                      'Edit it in the Edit tab or drag the control points of the chart below the ground.</div>')
         self.badge = gui.add_html(badge_html("pending", "Solving the throw ..."))
@@ -173,11 +173,14 @@ class ThrowStudio:
         tabs = gui.add_tab_group()
         with tabs.add_tab("Plots"):
             self.plots = {}
-            for key in ("speeds", "torques", "phase", "angles"):
+            for key, x_label, y_label in (("speeds", "t [s]", "|q̇| / limit"), ("torques", "t [s]", "τ [N m]"),
+                                          ("phase", "θ [m]", "θ̇ [m/s]"), ("angles", "t [s]", "q [rad]")):
                 legend = gui.add_html("")
                 chart = gui.add_uplot(data=(np.array([0.0, 1.0]), np.array([0.0, 0.0])),
                                       series=({"label": "x"}, {"label": "y"}), aspect=1.45,
                                       legend={"show": False}, scales={"x": {"time": False}},
+                                      axes=({"label": x_label, "size": 40, "ticks": {"show": False}},
+                                            {"label": y_label, "size": 58, "ticks": {"show": False}}),
                                       cursor={"drag": {"x": True, "y": False}})
                 self.plots[key] = (legend, chart)
         with tabs.add_tab("Edit"):
@@ -206,7 +209,7 @@ class ThrowStudio:
         for key, handle in (("psi_deg", self.psi), ("theta_b", self.theta_b), ("theta_e", self.theta_e),
                             ("k", self.k), ("theta_dot_b", self.theta_dot_b)):
             handle.on_update(lambda e, key=key: self._number_edited(key, e))
-        gui.add_html('<div class="r2-label" style="font-size:0.8em;color:#555;margin-top:6px">Bézier control '
+        gui.add_html(f'<div class="r2-label" style="font-size:0.8em;color:#555;margin-top:6px;{BLOCK}">Bézier control '
                      'points: pick one and slide it, type them all, or drag them in the chart of the 3D view.</div>')
         self.point = gui.add_dropdown("Control point", self._point_options(), initial_value=self._point_options()[0])
         self.point_value = gui.add_slider("Value [rad]", min=-2.1, max=3.7, step=0.001, initial_value=float(v["a"][0]))
@@ -233,7 +236,7 @@ class ThrowStudio:
 
     def _build_optimizer(self) -> None:
         gui = self.gui
-        gui.add_html('<div class="r2-label" style="font-size:0.8em;color:#444">Maximize the distance from the '
+        gui.add_html(f'<div class="r2-label" style="font-size:0.8em;color:#444;{BLOCK}">Maximize the distance from the '
                      'base over the control points (degree 6), θb, θe, ψ and k under every limit of Table A.2 '
                      '(and q1 ≥ π/6 of eq. 4.5), then confirm the best throw in the full 3-DOF dynamics.</div>')
         self.objective = gui.add_dropdown("Objective", list(OBJECTIVES), initial_value=list(OBJECTIVES)[0],
@@ -559,8 +562,8 @@ class ThrowStudio:
         cfg = self.config
         title = cfg.title or Path(cfg.source).stem
         if self.edited:
-            return (f'<div style="font-size:0.82em;color:#444"><b>{html.escape(title)}</b>, edited</div>')
-        return (f'<div style="font-size:0.8em;color:#444"><b>{html.escape(title)}</b>'
+            return f'<div style="font-size:0.82em;color:#444;{BLOCK}"><b>{html.escape(title)}</b>, edited</div>'
+        return (f'<div style="font-size:0.8em;color:#444;{BLOCK}"><b>{html.escape(title)}</b>'
                 f'<div style="color:#666;font-size:0.92em;line-height:1.3">{html.escape(cfg.notes)}</div></div>')
 
     def _show_problem(self, message: str, values, spec, flags=()) -> None:
@@ -800,7 +803,7 @@ class ThrowStudio:
     @staticmethod
     def _status(text: str, done: bool = False) -> str:
         color = "#1e7b34" if done else "#333"
-        return f'<div class="r2-label" style="font-size:0.8em;color:{color}">{html.escape(text)}</div>'
+        return f'<div class="r2-label" style="font-size:0.8em;color:{color};{BLOCK}">{html.escape(text)}</div>'
 
     # ================================================================== files
     def _download(self, event) -> None:
@@ -891,8 +894,7 @@ def save_doc_screenshots(out_dir=None, lab=None, browser=None) -> List[Path]:
                     settle(page, 1.5)
                     legend = page.locator(".r2-plot-legend", has_text="Phase portrait").first.bounding_box()
                     plot = page.locator(".uplot").nth(list(studio.plots).index("phase")).bounding_box()
-                    left, top = min(legend["x"], plot["x"]) - 6, legend["y"] - 6
-                    right = max(legend["x"] + legend["width"], plot["x"] + plot["width"]) + 6
+                    left, top, right = plot["x"] - 4, legend["y"] - 6, plot["x"] + plot["width"] + 2
                     page.screenshot(path=str(out), clip={"x": left, "y": top, "width": right - left,
                                                          "height": plot["y"] + plot["height"] - top + 8})
                 paths.append(out)

@@ -34,6 +34,8 @@ TRANSPARENT = "rgba(0,0,0,0)"
 FLIGHTS = {"true": ("true velocity J(q) q̇", (200, 40, 40)),
            "thesis": ("thesis convention: θ̇ along ψ", (110, 110, 120))}
 PORTRAIT_RESTS = 7          # curves from rest drawn in the phase portrait (plus the throw's own)
+#: side margins of the studio's HTML blocks, aligned with viser's widgets and clear of the panel's scrollbar
+BLOCK = "padding:0 14px 0 9px"
 
 
 def hex_color(rgb: Sequence[int]) -> str:
@@ -133,13 +135,14 @@ class PlotSpec:
     bands: Tuple[dict, ...]
     y_range: Tuple[float, float]
     legend: str
+    x_range: Optional[Tuple[float, float]] = None      # default: the data's x extent
 
     @property
     def scales(self) -> dict:
-        """Both ranges fixed: the data's x extent, and ``y_range`` (uPlot's automatic range would
-        break on the NaN that end partial curves)."""
+        """Both ranges fixed (uPlot's automatic range would break on the NaN that end partial curves)."""
         x = self.data[0]
-        return {"x": {"time": False, "range": (float(x[0]), float(x[-1]))},
+        lo, hi = self.x_range or (float(x[0]), float(x[-1]))
+        return {"x": {"time": False, "range": (float(lo), float(hi))},
                 "y": {"range": tuple(float(v) for v in self.y_range)}}
 
 
@@ -165,7 +168,7 @@ def _swatch(color: str, label: str, dashed: bool = False, fill: bool = False) ->
 
 
 def legend_html(title: str, items: Sequence[str]) -> str:
-    return (f'<div class="r2-plot-legend" style="font-size:0.8em;color:#333;margin:6px 0 0 0">'
+    return (f'<div class="r2-plot-legend" style="font-size:0.8em;color:#333;margin:6px 0 0 0;{BLOCK}">'
             f'<b>{html.escape(title)}</b><br>{"".join(items)}</div>')
 
 
@@ -204,9 +207,9 @@ class _Builder:
         i_beyond = self.curve("beyond", beyond, TRANSPARENT, 0.0)
         self.bands.append({"series": (i_beyond, i_line) if upper else (i_line, i_beyond), "fill": OVER_LIMIT_FILL})
 
-    def build(self, legend: str, y_range=None) -> PlotSpec:
+    def build(self, legend: str, y_range=None, x_range=None) -> PlotSpec:
         return PlotSpec(tuple(self.data), tuple(self.series), tuple(self.bands),
-                        y_range or _range(self.visible), legend)
+                        y_range or _range(self.visible), legend, x_range)
 
 
 def _snap(theta: np.ndarray, where: Sequence[float]) -> np.ndarray:
@@ -275,7 +278,9 @@ def phase_plot(view: ThrowView) -> PlotSpec:
         items.append('<span style="white-space:nowrap">● α = 0 (singular)</span>')
     title = "Phase portrait θ̇(θ) [m/s] of the reduced dynamics" + (f": {', '.join(kinds)}" if kinds else
                                                                     ": no equilibrium in this range")
-    return b.build(legend_html(title, items), (-top, top))
+    reachable = pp.theta[np.isfinite(pp.alpha)]          # the constraint can be reached there
+    x_range = (float(reachable[0]), float(reachable[-1])) if reachable.size > 1 else None
+    return b.build(legend_html(title, items), (-top, top), x_range)
 
 
 def angles_plot(view: ThrowView, limits: Dict[str, np.ndarray]) -> PlotSpec:
@@ -345,7 +350,7 @@ def badge_html(state: str, title: str, details: Sequence[str] = (), note: str = 
                f"{items}</ul>") if details else ""
     extra = f'<div style="font-size:0.9em;margin-top:3px;opacity:0.9">{html.escape(note)}</div>' if note else ""
     return (f'<div class="r2-throw-badge" data-state="{state}" style="font-size:0.84em;color:{fg};background:{bg};'
-            f'border-radius:6px;padding:5px 9px;margin:4px 0"><b>{icon} {html.escape(title)}</b>{listing}{extra}</div>')
+            f'border-radius:6px;padding:5px 9px;margin:4px 14px 4px 9px"><b>{icon} {html.escape(title)}</b>{listing}{extra}</div>')
 
 
 def feasibility_badge(feas: Feasibility) -> str:
@@ -396,7 +401,7 @@ def summary_html(view: ThrowView, thesis: Optional[Dict[str, float]] = None) -> 
                          f"{thesis.get('distance_from_release', float('nan')):g} m from the release (its convention)")
         lines.append("the thesis reports: " + html.escape(", ".join(parts))
                      + ' <span style="color:#666">(docs/throwing.md explains the differences)</span>')
-    return (f'<div class="r2-throw-summary" style="font-size:0.82em;color:#222;line-height:1.4">{table}'
+    return (f'<div class="r2-throw-summary" style="font-size:0.82em;color:#222;line-height:1.4;{BLOCK}">{table}'
             + "".join(f'<div style="margin-top:3px">{line}</div>' for line in lines) + "</div>")
 
 
@@ -419,7 +424,7 @@ def verification_html(sims: Sequence, view: ThrowView) -> str:
     body = "".join(f"<tr><td>{html.escape(label)}</td>"
                    + "".join(f'<td style="text-align:right">{v}</td>' for v in values) + "</tr>"
                    for label, values in rows)
-    return ('<div class="r2-throw-verification" style="font-size:0.8em;color:#222">'
+    return (f'<div class="r2-throw-verification" style="font-size:0.8em;color:#222;{BLOCK}">'
             "<b>Full dynamics</b>: the complete 3-DOF arm, wrist free, simulated from the VHC's initial state "
             "until the ball reaches θe, joints 1 and 2 driven by the VHC torques or by a tracking controller; "
             "drifts are the largest distances from the VHC prediction."
