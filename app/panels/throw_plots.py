@@ -283,8 +283,9 @@ def phase_plot(view: ThrowView) -> PlotSpec:
     return b.build(legend_html(title, items), (-top, top), x_range)
 
 
-def angles_plot(view: ThrowView, limits: Dict[str, np.ndarray]) -> PlotSpec:
+def angles_plot(view: ThrowView, limits: Optional[Dict[str, np.ndarray]] = None) -> PlotSpec:
     """q1, q2, q3 [rad] over time; red where a joint leaves its range."""
+    limits = limits or view.throw.arm.limits
     tr = view.samples
     b = _Builder(tr.t, "t [s]")
     for i in range(3):
