@@ -143,7 +143,8 @@ def pretty(tp: TrigPoly, angles: Sequence[Dict[sp.Symbol, int]] = (), masses=())
     q2 and q2 + q3), reduced with sin^2 + cos^2 = 1, and the shorter form is kept:
     cos(q3) + cos(2 q2 + q3) becomes 2 cos(q2) cos(q2 + q3)."""
     base = sp.Add(*[nice_coefficient(c, masses) * TrigPoly.basis_function(k) for k, c in tp.terms.items()])
-    if not angles or not any(max(abs(n) for _, n in freq) > 1 for (freq, _k) in tp.terms if freq):
+    natural = [dict(a) for a in angles]
+    if not natural or all(not freq or {s: n for s, n in freq} in natural for (freq, _k) in tp.terms):
         return base
     alt = _product_form(tp, list(angles), masses)
     if alt is None:
