@@ -14,7 +14,7 @@ panel. Arrows of one step share one length scale so that they can be compared.
 """
 from __future__ import annotations
 
-from typing import Any, Dict, List, Optional, Sequence
+from typing import Any, Dict, List, Optional
 
 import numpy as np
 import sympy as sp

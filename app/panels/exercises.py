@@ -21,7 +21,7 @@ from typing import Any, Dict, List, Optional, Tuple
 import numpy as np
 
 from app.core.errors import UserError
-from app.core.exercise import EXERCISES_DIR, Exercise, ExerciseError, load_exercise
+from app.core.exercise import EXERCISES_DIR, Exercise, load_exercise
 from app.core.expressions import ExpressionError, parse_expression
 from app.panels.exercise_scene import HintDrawer
 from app.panels.exercise_variant import SOLUTIONS, Field, fields, format_value, parse_field
@@ -333,7 +333,7 @@ class ExercisesPanel:
         if event.target.value.startswith("Exam"):
             self.reset_variant()
         else:
-            self.solve_variant({f.name: h.value for f, h in self._fields}, by_name=True)
+            self.solve_variant({f.name: h.value for f, h in self._fields})
 
     def reset_variant(self) -> None:
         """Back to the exercise's own numbers."""
@@ -342,7 +342,7 @@ class ExercisesPanel:
         self.state["texts"] = {}
         self._solve({})
 
-    def solve_variant(self, typed: Dict[str, str], by_name: bool = True) -> bool:
+    def solve_variant(self, typed: Dict[str, str]) -> bool:
         """Solve with the typed values (field name -> text; fields not named keep their text).
         A bad value is a notification and changes nothing; returns whether solving started."""
         ex = self.exercise
@@ -352,7 +352,7 @@ class ExercisesPanel:
         values, texts = {}, {}
         try:
             for f, handle in self._fields:
-                text = typed.get(f.name if by_name else f.key, handle.value)
+                text = typed.get(f.name, handle.value)
                 if handle.value != text:
                     handle.value = text
                 if text.strip() == f.text:
