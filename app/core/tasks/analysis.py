@@ -69,6 +69,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 import numpy as np
 import sympy as sp
 
+from ..coordinates import in_coordinates
 from ..dynamics import natural_angles, pretty
 from ..exercise import ExerciseError
 from ..expressions import ExpressionError, parse_number, symbol
@@ -625,12 +626,13 @@ def coordinate_map_task(ctx, spec):
     stray = set().union(*[e.free_symbols for e in f]) & (set(a.q) - set(theta))
     if stray:
         raise a.fail("map", f"the expressions must use the new coordinates, not {sorted(s.name for s in stray)}")
-    T = f.jacobian(sp.Matrix(theta))
-    if T.det() == 0:
-        raise a.fail("map", "the map is singular (dq/dtheta not invertible)")
-    at = dict(zip(a.q, f))
-    M_new = a.tidy_matrix(T.T * a.M.subs(at, simultaneous=True) * T)
-    g_new = a.tidy_matrix(T.T * a.g.subs(at, simultaneous=True))
+    try:
+        change = in_coordinates(a.q, a.dyn.dq, a.M, a.c, a.g, a.k, f, theta)
+    except ValueError as exc:
+        raise a.fail("map", str(exc)) from None
+    T = change.T
+    M_new = a.tidy_matrix(change.M)
+    g_new = a.tidy_matrix(change.g)
     th = sp.Matrix(theta)
     a.ctx.step("Change of coordinates", rf"q = f(\theta) = {a.L(f)},\quad T = \frac{{\partial f}}{{\partial \theta}} = {a.L(T)}",
                "Velocities map as q' = T theta'; the kinetic energy keeps its value.")

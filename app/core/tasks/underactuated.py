@@ -68,6 +68,7 @@ from typing import Dict, List, Sequence
 import numpy as np
 import sympy as sp
 
+from ..coordinates import in_coordinates
 from ..dynamics import natural_angles, pretty
 from ..exercise import ExerciseError
 from ..expressions import symbol
@@ -694,18 +695,17 @@ def coordinate_change_task(ctx, spec):
     if not isinstance(mp, dict) or len(mp) != n:
         raise ExerciseError(f"coordinate_change.map: give one new coordinate per old one ({n})")
     p = sp.Matrix(m.new_symbols(list(mp), "coordinate_change.map"))
-    dp = sp.Matrix(m.new_symbols(["d" + str(s) for s in p], "coordinate_change.map"))
+    m.new_symbols(["d" + str(s) for s in p], "coordinate_change.map")   # the velocities must be free names too
     expr = sp.Matrix([ctx.expr(v, f"coordinate_change.map.{k}") for k, v in mp.items()])
     J = expr.jacobian(m.q)
     if J.free_symbols & (set(m.q) | set(m.dq)) or (expr - J * m.q).free_symbols & set(m.q):
         raise ExerciseError("coordinate_change.map: only linear maps p = J q are supported")
     Jinv = _inverse(J)
     q_of_p = Jinv * (p - (expr - J * m.q))
-    sub = dict(zip(m.q, q_of_p))
-    sub.update(zip(m.dq, Jinv * dp))
-    M_p = m.tidy_matrix((Jinv.T * m.M * Jinv).subs(sub, simultaneous=True))
-    c_p = m.tidy_matrix((Jinv.T * m.dyn.c).subs(sub, simultaneous=True))
-    g_p = m.tidy_matrix((Jinv.T * (m.dyn.g + m.dyn.spring)).subs(sub, simultaneous=True))
+    change = in_coordinates(m.q, m.dq, m.M, m.dyn.c, m.dyn.g, m.dyn.spring, q_of_p, list(p))
+    M_p = m.tidy_matrix(change.M)
+    c_p = m.tidy_matrix(change.c)
+    g_p = m.tidy_matrix(change.g + change.spring)
     tau_q = J.T * tau
     ctx.step("New coordinates", rf"p = {m.L(expr)} = J q,\quad J = {m.L(J)},\quad q = {m.L(q_of_p)}",
              "A constant, invertible linear map: p' = J q' and p'' = J q''.")
