@@ -137,6 +137,7 @@ class ThrowStudio:
         self.selected = ("a", 0)
         self.nodes = Nodes(session.client.scene, "/throw")
         arm = self.arm()
+        self.limits = arm.limits                       # the robot file's limits (Table A.2)
         self.drawing = ThrowDrawing(self.nodes, arm.shoulder_height)
         self.chart = BezierChart(self.nodes, CHART_RECT, self._chart_dragged, self._chart_selected)
         remembered = self.state.get("config")
@@ -295,7 +296,7 @@ class ThrowStudio:
 
     def _sync_point_slider(self) -> None:
         kind, i = self.selected
-        lim = self.arm().limits
+        lim = self.limits
         j = 0 if kind == "a" else 1
         lo, hi = float(lim["lower"][j]), float(lim["upper"][j])
         value = float(self.values[kind][i])
@@ -419,7 +420,7 @@ class ThrowStudio:
         self._edited()
 
     def _chart_dragged(self, kind: str, index: int, value: float, phase: str) -> None:
-        lim = self.arm().limits
+        lim = self.limits
         j = 0 if kind == "a" else 1
         value = float(min(max(value, lim["lower"][j]), lim["upper"][j]))
         with self.lock:
@@ -540,6 +541,7 @@ class ThrowStudio:
                 chart.bands = spec.bands
                 chart.scales = spec.scales
         self._redraw_chart(values, view.spec)
+        self.drawing.shoulder = np.array([0.0, view.throw.arm.shoulder_height])   # platform and l0 may change
         with session.client.atomic():
             self.drawing.show(view)
             for name, q in (("throw_start", view.samples.q[:, 0]), ("throw_release", view.samples.q[:, -1])):
@@ -630,8 +632,8 @@ class ThrowStudio:
         """The robot at q; with ``sliders`` the joint sliders follow (at the throw's start)."""
         if not self._owns_robot():
             return
-        if sliders:
-            self.session.set_q(q)
+        if sliders and not np.array_equal(np.asarray(q, float), self.session.q):
+            self.session.set_q(q)           # other panels follow q: only when it changes
         else:
             self.session.scene.set_pose(q)
 
