@@ -127,7 +127,6 @@ class ThrowStudio:
         self._arm: Optional[ThrowingArm] = None
         self._arm_key = None
         self._flags: set = set()
-        self._shown_q0 = None
         self._typing_timers: Dict[str, threading.Timer] = {}
         self._anim = {"t": 0.0, "playing": False, "speed": 0.25}
         self._anim_lock = threading.Lock()
@@ -148,7 +147,7 @@ class ThrowStudio:
         self._job = Coalescer(self._compute, 0.02, self._internal_error)
         self._build()
         self.state["studio"] = self
-        self._compute_now()           # the first throw is on the page when the tab appears
+        self._compute()               # the first throw is on the page when the tab appears
         session.on_parameters_change(self._parameters_changed)
         self._start_animation_thread()
 
@@ -338,11 +337,11 @@ class ThrowStudio:
         self.state.update(values=dict(self.values), config=self.config, edited=self.edited)
 
     # ================================================================== edits
-    def _edited(self, flags=()) -> None:
-        """The values changed: solve again (coalesced, off the event thread)."""
+    def _edited(self) -> None:
+        """The user changed the throw: solve it again (coalesced, off the event thread)."""
         self.edited = True
         self._remember()
-        self.request(flags)
+        self.request()
 
     def request(self, flags=()) -> None:
         with self.lock:
@@ -475,11 +474,6 @@ class ThrowStudio:
         self.request({"frame", "play", "load"} if play else {"frame", "load"})
 
     # ================================================================== solving and showing
-    def _compute_now(self) -> None:
-        with self.lock:
-            self._flags |= {"initial"}
-        self._compute()
-
     def _compute(self) -> None:
         if not self._alive():
             return
