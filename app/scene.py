@@ -262,7 +262,10 @@ class RobotDrawing:
     # ------------------------------------------------------------------ kinematics
     def poses(self, q) -> Dict[str, np.ndarray]:
         """World 4x4 transform of every attachment at coordinates q."""
-        mats = self._frames_fn(np.asarray(q, dtype=float).reshape(-1), self.p)
+        q = np.asarray(q, dtype=float).reshape(-1)
+        if q.size != self.robot.n:
+            raise ValueError(f"{self.robot.name} has {self.robot.n} coordinates, got {q.size}")
+        mats = self._frames_fn(q, self.p)
         out = {"base": np.eye(4)}
         for i, body in enumerate(self.robot.bodies):
             out[f"{body.name}@joint"] = np.asarray(mats[2 * i], dtype=float)

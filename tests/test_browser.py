@@ -10,20 +10,6 @@ import pytest
 
 from app.scene import PALETTE
 from app.viewer import screenshot as shots
-from app.viewer.server import LabServer
-
-
-@pytest.fixture(scope="module")
-def lab():
-    server = LabServer(port=0, verbose=False)
-    yield server
-    server.stop()
-
-
-@pytest.fixture(scope="module")
-def browser():
-    with shots.Browser() as b:
-        yield b
 
 
 def open_tab(lab, browser, robot="planar_2r", hide=True):

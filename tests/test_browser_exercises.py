@@ -15,7 +15,6 @@ from app.panels.exercise_view import answer_unit, answers_html, paragraphs, prof
 from app.panels.exercises import option_label, shipped_exercises
 from app.scene import RobotDrawing
 from app.viewer import screenshot as shots
-from app.viewer.server import LabServer
 
 
 # ====================================================================== without a browser
@@ -165,19 +164,6 @@ def test_force_hints_start_at_the_contact_point():
 
 
 # ====================================================================== in the browser
-@pytest.fixture(scope="module")
-def lab():
-    server = LabServer(port=0, verbose=False)
-    yield server
-    server.stop()
-
-
-@pytest.fixture(scope="module")
-def browser():
-    with shots.Browser() as b:
-        yield b
-
-
 def wait_until(condition, timeout=60.0, what="condition"):
     deadline = time.time() + timeout
     while time.time() < deadline:

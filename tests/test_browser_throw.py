@@ -12,20 +12,6 @@ import pytest
 from app.core.vhc import ThrowingArm, load_throw_config, thesis_throw
 from app.panels.throw import format_points
 from app.viewer import screenshot as shots
-from app.viewer.server import LabServer
-
-
-@pytest.fixture(scope="module")
-def lab():
-    server = LabServer(port=0, verbose=False)
-    yield server
-    server.stop()
-
-
-@pytest.fixture(scope="module")
-def browser():
-    with shots.Browser() as b:
-        yield b
 
 
 @pytest.fixture(scope="module")

@@ -7,20 +7,6 @@ import pytest
 
 from app.panels.control import plot_groups, plots_png
 from app.viewer import screenshot as shots
-from app.viewer.server import LabServer
-
-
-@pytest.fixture(scope="module")
-def lab():
-    server = LabServer(port=0, verbose=False)
-    yield server
-    server.stop()
-
-
-@pytest.fixture(scope="module")
-def browser():
-    with shots.Browser() as b:
-        yield b
 
 
 def open_control(lab, browser, robot="planar_2r"):

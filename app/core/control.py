@@ -265,7 +265,7 @@ class PDGravity(PD):
                    "(Lyapunov V = 1/2 q'^T M q' + 1/2 e^T K_P e, LaSalle).")
 
     def step(self, k, t, q, dq, qd, dqd, ddqd):
-        return self.Kp * (qd - q) + self.Kd * (dqd - dq) + self.model.gravity(q)
+        return super().step(k, t, q, dq, qd, dqd, ddqd) + self.model.gravity(q)
 
 
 @register
@@ -277,7 +277,7 @@ class PDGravityConstant(PD):
                    "of the norm of dg/dq.")
 
     def step(self, k, t, q, dq, qd, dqd, ddqd):
-        return self.Kp * (qd - q) + self.Kd * (dqd - dq) + self.model.gravity(qd)
+        return super().step(k, t, q, dq, qd, dqd, ddqd) + self.model.gravity(qd)
 
 
 @register

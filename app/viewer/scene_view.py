@@ -165,8 +165,9 @@ class SceneView:
         with self._lock:
             if self.drawing is None:
                 return
-            self.q = np.asarray(q, dtype=float).copy()
-            poses = self.drawing.poses(q)
+            q = np.asarray(q, dtype=float).copy()
+            poses = self.drawing.poses(q)      # raises on a wrong size: self.q stays valid
+            self.q = q
             with self.client.atomic():
                 for attach, handle in self._frames.items():
                     T = poses[attach]
