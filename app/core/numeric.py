@@ -29,7 +29,9 @@ _LAMBDA_CACHE: Dict[Tuple[str, str], object] = {}
 _LAMBDA_LOCK = threading.Lock()
 
 
-def _lambdify(robot: RobotModel, tag: str, args, expr):
+def compiled_function(robot: RobotModel, tag: str, args, expr):
+    """``sympy.lambdify(args, expr)`` (numpy, common subexpressions eliminated), compiled once per
+    robot file and ``tag`` and shared by every user in the process."""
     key = (robot.content_hash or repr(robot), tag)
     with _LAMBDA_LOCK:
         fn = _LAMBDA_CACHE.get(key)
@@ -80,29 +82,29 @@ class NumericModel:
     # ------------------------------------------------------------------ compiled functions
     @cached_property
     def _fM(self):
-        return _lambdify(self.robot, "M", [self._q, self._p], self.dyn.M)
+        return compiled_function(self.robot, "M", [self._q, self._p], self.dyn.M)
 
     @cached_property
     def _fC(self):
-        return _lambdify(self.robot, "C", [self._q, self._dq, self._p], self.dyn.C)
+        return compiled_function(self.robot, "C", [self._q, self._dq, self._p], self.dyn.C)
 
     @cached_property
     def _fg(self):
-        return _lambdify(self.robot, "g", [self._q, self._p], self.dyn.g)
+        return compiled_function(self.robot, "g", [self._q, self._p], self.dyn.g)
 
     @cached_property
     def _fk(self):
-        return _lambdify(self.robot, "k", [self._q, self._p], self.dyn.spring)
+        return compiled_function(self.robot, "k", [self._q, self._p], self.dyn.spring)
 
     @cached_property
     def _ffr(self):
-        return _lambdify(self.robot, "friction", [self._dq, self._p], self.dyn.friction)
+        return compiled_function(self.robot, "friction", [self._dq, self._p], self.dyn.friction)
 
     @cached_property
     def _fE(self):
         T = sum(self.dyn.kinetic.values(), sp.Integer(0))
         U = sum(self.dyn.potential.values(), sp.Integer(0))
-        return _lambdify(self.robot, "energy", [self._q, self._dq, self._p], sp.Matrix([T, U]))
+        return compiled_function(self.robot, "energy", [self._q, self._dq, self._p], sp.Matrix([T, U]))
 
     # ------------------------------------------------------------------ evaluation
     def _qv(self, q):
@@ -159,7 +161,7 @@ class NumericModel:
                 T[:3, :3] = f.R
                 T[:3, 3] = f.p
                 mats.append(T)
-        return _lambdify(self.robot, "frames", [self._q, self._p], mats)
+        return compiled_function(self.robot, "frames", [self._q, self._p], mats)
 
     def frames(self, q) -> Dict[str, Dict[str, np.ndarray]]:
         """World 4x4 transforms of each body's joint frame (before motion) and body frame."""
@@ -176,8 +178,8 @@ class NumericModel:
         pos = self._kin.point_position(body, local)
         jac = pos.jacobian(sp.Matrix(self._q))
         tag = f"point:{body}:{list(local)}"
-        fp = _lambdify(self.robot, tag, [self._q, self._p], pos)
-        fj = _lambdify(self.robot, tag + ":J", [self._q, self._p], jac)
+        fp = compiled_function(self.robot, tag, [self._q, self._p], pos)
+        fj = compiled_function(self.robot, tag + ":J", [self._q, self._p], jac)
         return (lambda q: np.asarray(fp(self._qv(q), self.p), dtype=float).reshape(3),
                 lambda q: np.asarray(fj(self._qv(q), self.p), dtype=float).reshape(3, self.n))
 

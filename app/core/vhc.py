@@ -26,7 +26,6 @@ vectorized over nodes and over batches of throws (the optimizer's finite differe
 from __future__ import annotations
 
 import math
-import threading
 import time
 from dataclasses import dataclass, field, replace
 from functools import lru_cache
@@ -42,6 +41,7 @@ from numpy.polynomial import chebyshev as npcheb
 from .ballistics import landing_distance
 from .dynamics import derive
 from .errors import UserError
+from .numeric import compiled_function
 from .expressions import parse_expression
 from .numeric import NumericModel
 from .robot import RobotModel, load_robot
@@ -361,21 +361,6 @@ class ChebPieces:
 
 
 # ====================================================================== the arm
-_COMPILED: Dict[Tuple[str, str], object] = {}
-_COMPILED_LOCK = threading.Lock()
-
-
-def _compiled(robot: RobotModel, tag: str, args, exprs):
-    key = (robot.content_hash or repr(robot), tag)
-    with _COMPILED_LOCK:
-        fn = _COMPILED.get(key)
-    if fn is None:
-        fn = sp.lambdify(args, list(exprs), modules="numpy", cse=True)
-        with _COMPILED_LOCK:
-            _COMPILED[key] = fn
-    return fn
-
-
 @dataclass
 class ConstraintState:
     """The constrained configuration along theta (arrays of shape (B, N); q-like ones (3, B, N))."""
@@ -424,9 +409,9 @@ class ThrowingArm:
         self._k_index = self._param_names.index("k")
         dyn = derive(robot)
         q, dq, p = robot.q, robot.dq, robot.parameter_symbols
-        self._fM = _compiled(robot, "vhc:M", [q, p], dyn.M)
-        self._fc = _compiled(robot, "vhc:c", [q, dq, p], dyn.c)
-        self._fG = _compiled(robot, "vhc:G", [q, p], dyn.g + dyn.spring)
+        self._fM = compiled_function(robot, "vhc:M", [q, p], list(dyn.M))
+        self._fc = compiled_function(robot, "vhc:c", [q, dq, p], list(dyn.c))
+        self._fG = compiled_function(robot, "vhc:G", [q, p], list(dyn.g + dyn.spring))
         self.limits = self._read_limits()
         self._check_kinematics()
 
