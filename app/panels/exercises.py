@@ -591,7 +591,6 @@ def save_doc_screenshots(out_dir=None) -> List[Path]:
                     print(f"skipped {filename}: no {kind} exercise shipped yet")
                     continue
                 paths.append(save_screenshot(out_dir / filename, ex.id, step_title, zoom, lab, browser))
-                print(f"{paths[-1]}  ({ex.id})")
     finally:
         lab.stop()
     return paths
