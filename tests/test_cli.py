@@ -5,6 +5,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 import sympy as sp
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -112,3 +113,15 @@ def test_names_sympify_cannot_read_back_are_refused(tmp_path):
     proc = run("derive", str(path), "--json", check=False)
     assert proc.returncode == 2
     assert "parameters.gamma: 'gamma' is a sympy/Python name" in proc.stderr
+
+
+def test_solve_refuses_bad_variants():
+    proc = run("solve", "2020-09-11#3", "--set", "m1=-3", check=False)
+    assert proc.returncode == 2 and "m1: a mass must not be negative (got -3)" in proc.stderr
+    proc = run("solve", "2020-09-11#3", "--set", "zz=1", check=False)
+    assert proc.returncode == 2 and "'zz' is neither a given value of the exercise nor a parameter" in proc.stderr
+    proc = run("solve", "2020-09-11#3", "--set", "m1=nan", check=False)
+    assert proc.returncode == 2 and "m1:" in proc.stderr
+    out = json.loads(run("solve", "2020-09-11#3", "--set", "m2=1", "--json").stdout)
+    # M11 at q* = (0, 3): I1 + I2 + m1 d1^2 + m2 (l1^2 + q2^2) = 0.25 + 0.875 + 0.75 + 10
+    assert out["answers"]["M_at"][0][0] == pytest.approx(11.875)

@@ -203,6 +203,27 @@ def expected_path(exercise: Exercise) -> Path:
 
 
 # ---------------------------------------------------------------------- solving
+_NON_NEGATIVE = ("mass", "inertia", "stiffness", "friction")
+
+
+def _check_variant(exercise: Exercise, robot: RobotModel, given: Mapping[str, Any]) -> None:
+    """Changed numbers must name a given value of the exercise or a robot parameter, and robot
+    parameters must be finite numbers (non-negative for masses, inertias, stiffnesses, friction)."""
+    import math
+    for name, value in given.items():
+        if name not in exercise.given and name not in robot.parameters:
+            known = sorted(set(exercise.given) | set(robot.parameters))
+            raise ExerciseError(f"{exercise.id}: '{name}' is neither a given value of the exercise nor a "
+                                f"parameter of {robot.name} (known: {', '.join(known)})")
+        param = robot.parameters.get(name)
+        if param is None:
+            continue
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise ExerciseError(f"{name}: expected a finite number, got {value!r}")
+        if param.kind in _NON_NEGATIVE and value < 0:
+            raise ExerciseError(f"{name}: a {param.kind} must not be negative (got {value:g})")
+
+
 def solve(exercise: Exercise, given: Optional[Mapping[str, Any]] = None,
           progress: Optional[Callable[[float, str], None]] = None) -> Solution:
     """Run every task of an exercise; ``given`` overrides the exercise's data (a variant)."""
@@ -210,6 +231,7 @@ def solve(exercise: Exercise, given: Optional[Mapping[str, Any]] = None,
     robot = exercise.load_robot()
     data = dict(exercise.given)
     if given:
+        _check_variant(exercise, robot, given)
         data.update(given)
     ctx = TaskContext(exercise, robot, data, progress)
     for i, spec in enumerate(exercise.tasks):
