@@ -14,24 +14,13 @@ from app.viewer import screenshot as shots
 
 def open_tab(lab, browser, robot="planar_2r", hide=True):
     """A new browser tab showing ``robot``; returns (page, its server-side session)."""
-    before = set(lab.sessions)
-    lab.initial_robot = robot
-    page = browser.page(lab.url)
-    shots.wait_ready(page, robot)
-    session = shots.new_session(lab, before)
-    if hide:
-        shots.hide_notifications(page)
+    page, session = shots.open_tab(lab, browser, robot, hide=hide)
     shots.settle(page, 0.8)
     return page, session
 
 
 def wait_until(condition, timeout=20.0, what="condition"):
-    deadline = time.time() + timeout
-    while time.time() < deadline:
-        if condition():
-            return
-        time.sleep(0.05)
-    raise AssertionError(f"timed out waiting for {what}")
+    shots.wait_until(condition, timeout, what)
 
 
 def hue_of(rgb):

@@ -165,24 +165,12 @@ def test_force_hints_start_at_the_contact_point():
 
 # ====================================================================== in the browser
 def wait_until(condition, timeout=60.0, what="condition"):
-    deadline = time.time() + timeout
-    while time.time() < deadline:
-        if condition():
-            return
-        time.sleep(0.05)
-    raise AssertionError(f"timed out waiting for {what}")
+    shots.wait_until(condition, timeout, what)
 
 
 def open_exercise(lab, browser, exercise_id, hide=True):
     """A new tab; the student opens the Exercises tab and picks the exercise in the dropdown."""
-    before = set(lab.sessions)
-    lab.initial_robot = "planar_2r"
-    page = browser.page(lab.url, height=900)
-    shots.wait_ready(page, "planar_2r")
-    session = shots._new_session(lab, before)
-    if hide:
-        shots.hide_notifications(page)
-    shots.select_tab(page, "Exercises")
+    page, session = shots.open_tab(lab, browser, "planar_2r", tab="Exercises", height=900, hide=hide)
     ex = load_exercise(exercise_id)
     shots.field(page, "Exercise").click()
     page.get_by_role("option", name=option_label(ex), exact=True).click()

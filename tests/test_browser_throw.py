@@ -21,24 +21,12 @@ def arm():
 
 def open_studio(lab, browser, hide=True):
     """A new tab on the throwing arm with the Throw studio open; returns (page, session, studio)."""
-    before = set(lab.sessions)
-    lab.initial_robot = "throwing_arm"
-    page = browser.page(lab.url, height=900)
-    shots.wait_ready(page, "throwing_arm")
-    session = shots.new_session(lab, before)
-    if hide:
-        shots.hide_notifications(page)
-    shots.select_tab(page, "Throw studio")
+    page, session = shots.open_tab(lab, browser, "throwing_arm", tab="Throw studio", height=900, hide=hide)
     return page, session, session.state["throw"]["studio"]
 
 
 def wait_until(condition, timeout=30.0, what="condition"):
-    deadline = time.time() + timeout
-    while time.time() < deadline:
-        if condition():
-            return
-        time.sleep(0.05)
-    raise AssertionError(f"timed out waiting for {what}")
+    shots.wait_until(condition, timeout, what)
 
 
 def badge(page, state, *texts, timeout=30.0):

@@ -10,22 +10,11 @@ from app.viewer import screenshot as shots
 
 
 def open_control(lab, browser, robot="planar_2r"):
-    before = set(lab.sessions)
-    lab.initial_robot = robot
-    page = browser.page(lab.url, height=900)
-    shots.wait_ready(page, robot)
-    session = shots._new_session(lab, before)
-    shots.select_tab(page, "Control")
-    return page, session
+    return shots.open_tab(lab, browser, robot, tab="Control", height=900, hide=False)
 
 
 def wait_until(condition, timeout=60.0, what="condition"):
-    deadline = time.time() + timeout
-    while time.time() < deadline:
-        if condition():
-            return
-        time.sleep(0.05)
-    raise AssertionError(f"timed out waiting for {what}")
+    shots.wait_until(condition, timeout, what)
 
 
 def typed(page, label, text):

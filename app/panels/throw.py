@@ -849,7 +849,8 @@ DOC_SHOTS = {
 
 def save_doc_screenshots(out_dir=None, lab=None, browser=None) -> List[Path]:
     """Regenerate this panel's pictures in docs/screenshots/ (headless Chromium)."""
-    from app.viewer.screenshot import Browser, hide_notifications, new_session, select_tab, settle, wait_ready
+    from app.viewer.screenshot import (Browser, hide_notifications, new_session, select_tab, settle, wait_ready,
+                                       wait_until)
     from app.viewer.server import LabServer
 
     out_dir = Path(out_dir or Path(__file__).resolve().parents[2] / "docs" / "screenshots")
@@ -875,7 +876,7 @@ def save_doc_screenshots(out_dir=None, lab=None, browser=None) -> List[Path]:
                 studio = session.state["throw"]["studio"]
                 shown = studio.shown
                 studio.load_config(load_throw_config(name), play=False)
-                _wait(lambda: studio.shown > shown)
+                wait_until(lambda: studio.shown > shown, what="the Throw studio to show the throw")
                 settle(page, 0.5)
                 studio.frame()
                 studio.show_time(fraction * studio.drawing.end_time())
@@ -902,12 +903,3 @@ def save_doc_screenshots(out_dir=None, lab=None, browser=None) -> List[Path]:
         if own_lab:
             lab.stop()
     return paths
-
-
-def _wait(condition, timeout: float = 30.0) -> None:
-    deadline = time.time() + timeout
-    while time.time() < deadline:
-        if condition():
-            return
-        time.sleep(0.05)
-    raise RuntimeError("the Throw studio did not show the throw in time")

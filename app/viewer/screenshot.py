@@ -139,15 +139,8 @@ def capture(robot: str, out: str | Path, panel: Optional[str] = None,
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     try:
-        before = set(lab.sessions)
-        lab.initial_robot = robot
-        page = browser.page(lab.url, width, height)
+        page, session = open_tab(lab, browser, robot, tab=panel, width=width, height=height)
         try:
-            wait_ready(page, robot)
-            session = new_session(lab, before)
-            hide_notifications(page)
-            if panel:
-                select_tab(page, panel)
             if setup is not None:
                 setup(session)
                 session.ready.wait(60)
@@ -181,4 +174,26 @@ def new_session(lab, before, timeout: float = 30.0):
     raise RuntimeError("the page connected but no session appeared")
 
 
-_new_session = new_session    # the earlier name, used by app/panels/throw.py
+def open_tab(lab, browser: "Browser", robot: str, tab: Optional[str] = None, width: int = WIDTH,
+             height: int = HEIGHT, hide: bool = True):
+    """A new browser tab on ``robot`` (with the tab ``tab`` open): (page, its server-side session)."""
+    before = set(lab.sessions)
+    lab.initial_robot = robot
+    page = browser.page(lab.url, width, height)
+    wait_ready(page, robot)
+    session = new_session(lab, before)
+    if hide:
+        hide_notifications(page)
+    if tab:
+        select_tab(page, tab)
+    return page, session
+
+
+def wait_until(condition: Callable[[], bool], timeout: float = 30.0, what: str = "condition") -> None:
+    """Poll ``condition`` every 50 ms; AssertionError naming ``what`` after ``timeout`` seconds."""
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        if condition():
+            return
+        time.sleep(0.05)
+    raise AssertionError(f"timed out waiting for {what}")
