@@ -4,7 +4,9 @@ JSON output (a stable contract): one object with keys
   "robot", "q" (coordinate names), "dq" (velocity symbol names), "params" (parameter names),
   "M" (rows), "C" (rows), "c", "g", "spring", "friction" (lists), "christoffel" (one matrix per
   coordinate, c_i = dq^T C_i dq), "Y" (rows), "a" (list), "Y_r" (rows, adaptive regressor with
-  reference symbols dq1_r, ddq1_r ...), "known" (parameters treated as known in Y).
+  reference symbols dq1_r, ddq1_r ...), "known" (parameters treated as known in Y), "known_terms"
+  and "known_terms_r" (y0, y0_r: terms with no unknown parameter, so that Y a + y0 = the model;
+  zero for most robots).
 Every entry is a string that ``sympy.sympify`` parses back with exactly the file's symbol names.
 """
 from __future__ import annotations
@@ -46,6 +48,7 @@ def model_json(robot, dyn) -> dict:
         "spring": _vec(dyn.spring), "friction": _vec(dyn.friction),
         "christoffel": [_rows(Ci) for Ci in dyn.christoffel],
         "Y": _rows(par.Y), "a": [str(e) for e in par.a], "Y_r": _rows(par.Y_ref), "known": par.known,
+        "known_terms": _vec(par.known_terms), "known_terms_r": _vec(par.known_terms_ref),
     }
 
 
@@ -85,6 +88,8 @@ def run(args) -> int:
         print(sp.pretty(dyn.friction, use_unicode=True), file=out)
     par = dyn.parametrization
     print(f"\nlinear parametrization Y a = tau with {par.count} coefficients (known: {', '.join(par.known) or 'none'}):", file=out)
+    if any(e != 0 for e in par.known_terms):
+        print("known terms y0 (tau = Y a + y0):", [str(e) for e in par.known_terms], file=out)
     for i, a in enumerate(par.a, 1):
         print(f"  a{i} = {a}", file=out)
     print("Y =", file=out)

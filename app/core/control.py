@@ -357,6 +357,7 @@ class Adaptive(Controller):
         self.coefficients_latex = [sp.latex(a) for a in par.a]
         self.coefficient_names = [str(a) for a in par.a]
         self._Y = sp.lambdify([robot.q, robot.dq, dqr, ddqr, p], par.Y_ref, "numpy", cse=True)
+        self._y0 = sp.lambdify([robot.q, robot.dq, dqr, ddqr, p], par.known_terms_ref, "numpy", cse=True)
         self._p = np.array([s.model.values[name] for name in robot.parameters], dtype=float)
         self.internal_names = [f"a_hat{i + 1}" for i in range(self.count)]
 
@@ -379,7 +380,8 @@ class Adaptive(Controller):
         sv = dqr - dq
         Y = self.regressor(q, dq, dqr, ddqr)
         self._used = self.a_hat
-        tau = Y @ self.a_hat + self.Kd * sv
+        y0 = np.asarray(self._y0(q, dq, dqr, ddqr, self._p), dtype=float).reshape(self.n)   # known terms
+        tau = Y @ self.a_hat + y0 + self.Kd * sv
         self.a_hat = self.a_hat + self.dt * self.Gamma * (Y.T @ sv)
         return tau
 

@@ -48,13 +48,18 @@ Progress = Optional[Callable[[float, str], None]]
 
 @dataclass
 class Parametrization:
-    """tau = Y(q, q', q'') a with a minimal set of dynamic coefficients a, and the adaptive
-    regressor Y_r(q, q', q'_r, q''_r) with Y_r a = M q''_r + C q'_r + g + k + F_v q'_r."""
+    """tau = Y(q, q', q'') a + y0 with a minimal set of dynamic coefficients a, and the adaptive
+    regressor Y_r(q, q', q'_r, q''_r) with Y_r a + y0_r = M q''_r + C q'_r + g + k + F_v q'_r.
+
+    y0 (``known_terms``) holds the terms with no unknown parameter at all, e.g. a spring whose
+    stiffness is a plain number; it is zero for most robots."""
     Y: sp.Matrix
     a: List[sp.Expr]
     Y_ref: sp.Matrix
     known: List[str]
     unknown: List[str]
+    known_terms: sp.Matrix
+    known_terms_ref: sp.Matrix
 
     @property
     def count(self) -> int:
@@ -121,6 +126,8 @@ def nice_coefficient(coeff, masses=()) -> sp.Expr:
     hit = _NICE_CACHE.get(key)
     if hit is not None:
         return hit
+    if not isinstance(coeff, sp.Add):
+        return coeff
     plain = sp.factor_terms(coeff)
     expanded = sp.expand(coeff)
     present = [m for m in masses if expanded.has(m)]
@@ -529,11 +536,14 @@ class _Deriver:
 
         self.progress(0.8, "linear parametrization")
         param = self._parametrize(M_tp, C_tp, g_tp, k_tp, fr)
-        self.step("Linear parametrization", rf"Y(q,\dot q,\ddot q)\,a = \tau,\quad Y = {self.L(param.Y)},\quad "
-                  rf"a = {self.L(sp.Matrix(param.a))}",
-                  f"A minimal set of {param.count} dynamic coefficients (known: {', '.join(param.known) or 'none'}).")
-        dqr, ddqr = self.robot.reference_symbols()
-        self.step("Adaptive regressor", rf"Y(q,\dot q,\dot q_r,\ddot q_r) = {self.L(param.Y_ref)}",
+        has_y0 = any(e != 0 for e in param.known_terms)
+        y0 = rf",\quad y_0 = {self.L(param.known_terms)}" if has_y0 else ""
+        self.step("Linear parametrization", rf"Y(q,\dot q,\ddot q)\,a{' + y_0' if has_y0 else ''} = \tau,\quad "
+                  rf"Y = {self.L(param.Y)},\quad a = {self.L(sp.Matrix(param.a))}{y0}",
+                  f"A minimal set of {param.count} dynamic coefficients (known: {', '.join(param.known) or 'none'})"
+                  + ("; y0 collects the terms with no unknown parameter." if has_y0 else "."))
+        y0r = rf",\quad y_{{0r}} = {self.L(param.known_terms_ref)}" if has_y0 else ""
+        self.step("Adaptive regressor", rf"Y(q,\dot q,\dot q_r,\ddot q_r) = {self.L(param.Y_ref)}{y0r}",
                   "Y_r a = M q''_r + C(q, q') q'_r + g(q) (+ springs, friction): the Slotine-Li regressor.")
         self.progress(1.0, "done")
         return Dynamics(
@@ -572,18 +582,16 @@ class _Deriver:
 
         tau_rows = rows(ddq, dq, dq)
         ref_rows = rows(ddqr, dqr, dqr)
-        cols = _split_columns(tau_rows, unknown_syms)
-        ref_cols = _split_columns(ref_rows, unknown_syms)
+        cols, y0 = _split_columns(tau_rows, unknown_syms)
+        ref_cols, y0_ref = _split_columns(ref_rows, unknown_syms)
         order = sorted(range(len(cols)), key=lambda k: (_complexity(cols[k][1]), k))
-        basis, coeff = _independent_columns([cols[k] for k in order], self._column_vars(dqr, ddqr), known)
+        basis, coeff = _independent_columns([cols[k] for k in order], known)
         Y = sp.Matrix(n, len(basis), lambda i, b: self.X(basis[b][1][i]))
         ref_map = {mono: vec for mono, vec in ref_cols}
         Y_ref = sp.Matrix(n, len(basis), lambda i, b: self.X(ref_map[basis[b][0]][i]) if basis[b][0] in ref_map else 0)
         a = [nice_coefficient(sp.expand(e), self.masses) for e in coeff]
-        return Parametrization(Y, a, Y_ref, sorted(known), sorted(s.name for s in unknown_syms))
-
-    def _column_vars(self, dqr, ddqr):
-        return list(self.q) + list(self.dq) + list(self.ddq)
+        return Parametrization(Y, a, Y_ref, sorted(known), sorted(s.name for s in unknown_syms),
+                               sp.Matrix([self.X(t) for t in y0]), sp.Matrix([self.X(t) for t in y0_ref]))
 
 
 def _complexity(vec: List[TrigPoly]) -> Tuple[int, int]:
@@ -592,7 +600,8 @@ def _complexity(vec: List[TrigPoly]) -> Tuple[int, int]:
 
 
 def _split_columns(rows: List[TrigPoly], unknown: List[sp.Symbol]):
-    """tau_i = sum_psi Y_i,psi * psi with psi monomials of the unknown parameters."""
+    """tau_i = sum_psi Y_i,psi * psi + y0_i with psi monomials of the unknown parameters; returns
+    the columns [(psi, [TrigPoly per row])] and y0 (the terms free of unknown parameters)."""
     columns: Dict[sp.Expr, List[Dict]] = {}
     order: List[sp.Expr] = []
     n = len(rows)
@@ -606,17 +615,15 @@ def _split_columns(rows: List[TrigPoly], unknown: List[sp.Symbol]):
                 items, gens = [((), coeff)], ()
             for monom, c in items:
                 psi = sp.Mul(*[g ** e for g, e in zip(gens, monom)])
-                if psi == 1 and unknown:
-                    raise ValueError("a term of the dynamics does not depend on any unknown parameter: "
-                                     f"{c * TrigPoly.basis_function(key)}; mark fewer parameters as known")
                 if psi not in columns:
                     columns[psi] = [dict() for _ in range(n)]
                     order.append(psi)
                 columns[psi][i][key] = columns[psi][i].get(key, 0) + c
-    return [(psi, [TrigPoly(columns[psi][i]) for i in range(n)]) for psi in order]
+    y0 = [TrigPoly(columns[sp.Integer(1)][i]) if sp.Integer(1) in columns else TrigPoly() for i in range(n)]
+    return [(psi, [TrigPoly(columns[psi][i]) for i in range(n)]) for psi in order if psi != 1], y0
 
 
-def _independent_columns(cols, variables, known):
+def _independent_columns(cols, known):
     """Greedy basis of the column space (over functions of the known parameters); dependent columns
     add their parameter monomial, times the exact combination coefficients, to the basis coefficients."""
     rng = np.random.default_rng(12345)

@@ -160,7 +160,7 @@ def parametrize(m: Model, coefficients: Optional[Sequence] = None, known: Option
     # the minimal set, as the engine's own regressor chooses it
     cols = [(sp.Mul(*[g ** e for g, e in zip(gens, mono)]), vec) for mono, vec in T.items()]
     cols.sort(key=lambda col: _complexity(col[1]))
-    _basis, coeffs = _independent_columns(cols, None, set(known)) if cols else ([], [])
+    _basis, coeffs = _independent_columns(cols, set(known)) if cols else ([], [])
     if a is None:
         a = [sp.factor_terms(sp.expand(c)) for c in coeffs]
     R_rows = [_monomials(e, gens) for e in a]

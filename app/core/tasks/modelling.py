@@ -4,7 +4,8 @@ Answers produced (names used by the expected-answer files):
 - ``dynamics``: M, C, c, g, spring, friction, C1..Cn (Christoffel matrices, c_i = dq^T C_i dq),
   T_<body> (kinetic energy per body), U (potential energy), p_<body> (CoM positions),
   v_<body> (CoM velocities), w_<body> (angular velocity in the body frame).
-- ``regressor``: Y, a, regressor_count (and Y_r, the adaptive regressor).
+- ``regressor``: Y, a, regressor_count (and Y_r, the adaptive regressor; y0, the terms with no
+  unknown parameter, when there are any: tau = Y a + y0).
 """
 from __future__ import annotations
 
@@ -59,6 +60,10 @@ def regressor_task(ctx, spec):
     ctx.answer("a", sp.Matrix(par.a))
     ctx.answer("regressor_count", par.count)
     ctx.answer("Y_r", par.Y_ref)
+    if any(e != 0 for e in par.known_terms):
+        ctx.step("Known terms", r"\tau = Y a + y_0,\quad y_0 = " + L(par.known_terms),
+                 "Terms with no unknown parameter (a spring of known stiffness, say) stay outside Y a.")
+        ctx.answer("y0", par.known_terms)
     if spec.get("adaptive"):
         ctx.step("Adaptive regressor", r"Y(q,\dot q,\dot q_r,\ddot q_r) = " + L(par.Y_ref),
                  "With q'_r = q'_d + Lambda e: u = Y_r a_hat + K_D (q'_r - q'), a_hat' = Gamma Y_r^T (q'_r - q').")
