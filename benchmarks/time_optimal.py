@@ -12,33 +12,16 @@ import math
 import time
 
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.optimize import brentq
 
 from app.core.numeric import NumericModel
 from app.core.robot import load_robot
-from app.core.time_optimal import JointPath, minimum_time_along_path
-
-
-def pendulum_reference(num, U, goal):
-    inertia, mgd = num.M([0.0])[0, 0], num.g([math.pi / 2])[0]
-
-    def arrival(ts):
-        f = lambda t, y, u: [y[1], (u - mgd * math.sin(y[0])) / inertia]
-        y = solve_ivp(f, [0, ts], [0.0, 0.0], args=(U,), rtol=1e-12, atol=1e-12).y[:, -1]
-        stop = lambda t, y, u: y[1]
-        stop.terminal, stop.direction = True, -1
-        out = solve_ivp(f, [0, 10], y, args=(-U,), events=stop, rtol=1e-12, atol=1e-12)
-        return out.y_events[0][0][0] - goal, ts + out.t_events[0][0]
-
-    ts = brentq(lambda x: arrival(x)[0], 0.05, 3.0, xtol=1e-14)
-    return arrival(ts)[1]
+from app.core.time_optimal import JointPath, minimum_time_along_path, pendulum_bang_bang_shooting
 
 
 def main():
     num = NumericModel(load_robot("kin_pendulum"))
     U, goal = 20.0, 2.0
-    ref = pendulum_reference(num, U, goal)
+    ref, _ = pendulum_bang_bang_shooting(num.M([0.0])[0, 0], num.g([math.pi / 2])[0], U, goal)
     print(f"single link under gravity, shooting reference T = {ref:.9f} s")
     for nodes in (100, 300, 1000, 3000):
         t0 = time.perf_counter()

@@ -4,13 +4,11 @@ import math
 import numpy as np
 import pytest
 import sympy as sp
-from scipy.integrate import solve_ivp
-from scipy.optimize import brentq
 
 from app.core.numeric import NumericModel
 from app.core.planning import PlanningError, TimingLaw, bang_bang_min_time, minimum_time, trapezoid_min_time
 from app.core.robot import load_robot
-from app.core.time_optimal import JointPath, joint_motion, minimum_time_along_path
+from app.core.time_optimal import JointPath, joint_motion, minimum_time_along_path, pendulum_bang_bang_shooting
 
 
 def _ratios(res, path, num, torque=None, velocity=None, count=3001):
@@ -63,17 +61,7 @@ def test_velocity_and_acceleration_bounds_give_bang_coast_bang_and_bang_bang():
 def test_pendulum_minimum_time_equals_bang_bang_shooting():
     num = NumericModel(load_robot("kin_pendulum"))
     inertia, mgd, U, goal = num.M([0.0])[0, 0], num.g([math.pi / 2])[0], 20.0, 2.0
-
-    def arrival(ts):
-        f = lambda t, y, u: [y[1], (u - mgd * math.sin(y[0])) / inertia]
-        y = solve_ivp(f, [0, ts], [0.0, 0.0], args=(U,), rtol=1e-12, atol=1e-12).y[:, -1]
-        stop = lambda t, y, u: y[1]
-        stop.terminal, stop.direction = True, -1
-        out = solve_ivp(f, [0, 10], y, args=(-U,), events=stop, rtol=1e-12, atol=1e-12)
-        return out.y_events[0][0][0] - goal, ts + out.t_events[0][0]
-
-    ts = brentq(lambda x: arrival(x)[0], 0.05, 3.0, xtol=1e-14)
-    T_shoot = arrival(ts)[1]
+    T_shoot, ts = pendulum_bang_bang_shooting(inertia, mgd, U, goal)
     path = JointPath.line([0.0], [goal])
     res, _ = minimum_time_along_path(path, num, torque=([-U], [U]), nodes=1000)
     assert abs(res.T - T_shoot) < 1e-5 * T_shoot

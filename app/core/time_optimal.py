@@ -424,3 +424,27 @@ def joint_motion(res: TimeOptimal, path: JointPath, times):
     s, sd, sdd = res.sample(times)
     qs, qss = path.q_s(s), path.q_ss(s)
     return path.q(s), qs * sd[:, None], qs * sdd[:, None] + qss * (sd ** 2)[:, None]
+
+
+def pendulum_bang_bang_shooting(inertia: float, mgd: float, torque: float, goal: float) -> Tuple[float, float]:
+    """Reference for one link under gravity (I theta'' + mgd sin theta = u, |u| <= torque), rest at
+    theta = 0 to rest at ``goal``: the bang-bang motion found by shooting on the switch time, with
+    a tight ODE integrator. Independent of the phase-plane method; returns (T, switch time) [s].
+
+    >>> T, ts = pendulum_bang_bang_shooting(1.0, 0.0, 1.0, 1.0)   # double integrator: T = 2 sqrt(goal)
+    >>> round(T, 6), round(ts, 6)
+    (2.0, 1.0)
+    """
+    from scipy.integrate import solve_ivp
+    from scipy.optimize import brentq
+
+    def arrival(ts):
+        f = lambda t, y, u: [y[1], (u - mgd * math.sin(y[0])) / inertia]
+        y = solve_ivp(f, [0, ts], [0.0, 0.0], args=(torque,), rtol=1e-12, atol=1e-12).y[:, -1]
+        stop = lambda t, y, u: y[1]
+        stop.terminal, stop.direction = True, -1
+        out = solve_ivp(f, [0, 10], y, args=(-torque,), events=stop, rtol=1e-12, atol=1e-12)
+        return out.y_events[0][0][0] - goal, ts + out.t_events[0][0]
+
+    ts = brentq(lambda x: arrival(x)[0], 0.05, 3.0, xtol=1e-14)
+    return float(arrival(ts)[1]), float(ts)
