@@ -99,6 +99,7 @@ class TaskContext:
         self.notes: List[str] = list(exercise.notes)
         self.progress = progress or (lambda f, m: None)
         self._derived: Dict[tuple, Dynamics] = {}
+        self.current = "task"                      # the task being solved, for messages
 
     def dynamics(self, known=None) -> Dynamics:
         key = tuple(sorted(known)) if known is not None else None
@@ -120,6 +121,12 @@ class TaskContext:
         return st
 
     def answer(self, name: str, value) -> None:
+        """Store a named answer; a name that is also a ``given`` entry is refused (later tasks
+        read names as answers first, so the given value would be silently shadowed)."""
+        if name in self.given:
+            raise ExerciseError(f"{self.exercise.source or self.exercise.id}: {self.current}: the answer "
+                                f"'{name}' has the same name as the given entry '{name}': rename the given "
+                                f"entry (e.g. '{name}_max' or '{name}_given')")
         self.answers[name] = value
 
     def expr(self, text, where: str = "expression"):
@@ -236,6 +243,7 @@ def solve(exercise: Exercise, given: Optional[Mapping[str, Any]] = None,
     ctx = TaskContext(exercise, robot, data, progress)
     for i, spec in enumerate(exercise.tasks):
         ctx.progress(i / len(exercise.tasks), spec["kind"])
+        ctx.current = f"tasks[{i}] ({spec['kind']})"
         TASKS[spec["kind"]](ctx, {k: v for k, v in spec.items() if k != "kind"})
     ctx.progress(1.0, "done")
     return Solution(exercise, ctx.steps, ctx.answers, ctx.notes, robot)

@@ -51,8 +51,12 @@ Task kinds (options -> answers):
 - ``accelerations``: q'' = M^-1 (S u - n) at a state. Options: ``state`` (coordinate or velocity
   -> value), ``inputs`` (actuated coordinate -> value or expression). Answers: ``ddq``.
 - ``elastic_joints``: robots whose motor coordinates (rotor inertia B) drive the links through
-  springs K (theta - q). Answers: ``K``, ``B``, ``link_equations`` (M q'' + c + g + K (q - theta),
-  = 0), ``motor_equations`` (B theta'' + K (theta - q), = u), ``theta_d`` (q_d + K^-1 g(q_d)),
+  springs on theta - q, linear K (theta - q) or nonlinear (e.g. ``expr: (theta - q)**2``, a force
+  k_n (theta - q)^3). Option ``q_d`` (link coordinate -> value: where the real root of a nonlinear
+  spring is chosen; default the exercise's configuration). Answers: ``K`` (linear stiffness), ``B``,
+  ``link_equations`` (M q'' + c + g + tau_K, = 0), ``motor_equations`` (B theta'' - tau_K, = u),
+  ``theta_d`` (q_d + K^-1 g(q_d); with nonlinear springs q_d + the real root delta of the link
+  equations at rest, e.g. k delta + k_n delta^3 = g(q_d)),
   ``u`` (motor PD with constant gravity compensation, gains kp<i>, kd<i>), ``V`` and ``V_dot``
   (Lyapunov function and its derivative along the closed loop, from the model itself).
 
@@ -436,7 +440,8 @@ def steady_rotation_task(ctx, spec):
     eqs = [torque[i] for i in zero]
     rows = None
     if len(unknowns) == 1 and len(eqs) == 1:
-        rows = [[r] for r in solve_trig(eqs[0], unknowns[0])]
+        roots = solve_trig(eqs[0], unknowns[0])     # None: not a polynomial in sin, cos
+        rows = None if roots is None else [[r] for r in roots]
     if rows is None:
         try:
             sols = sp.solve(eqs, unknowns, dict=True)
@@ -748,20 +753,74 @@ def accelerations_task(ctx, spec):
 
 # ====================================================================== elastic joints
 def _elastic_pairs(m: Model):
-    """(link index, motor index, stiffness) for every spring K (theta - q) between a motor
-    coordinate (one with a rotor inertia) and a link coordinate."""
+    """(link index, motor index, springs) for every motor coordinate (one with a rotor inertia)
+    tied to one link coordinate by springs whose potential depends on theta - q only: the linear
+    spring K (theta - q) and nonlinear ones such as (theta - q)**2 (U = k_n/4 (theta - q)^4)."""
     motors = {m.coords.index(c) for c in m.robot.motor_inertias}
-    pairs = []
+    delta = sp.Dummy("delta")
+    pairs: Dict[tuple, list] = {}
     for spring in m.robot.springs:
         if spring.expr is None:
             continue
         e = sp.expand(spring.expr - spring.rest)
-        lin = [i for i in range(len(m.coords)) if e.coeff(m.q[i]) != 0]
-        mot = [i for i in lin if i in motors]
-        link = [i for i in lin if i not in motors]
-        if len(mot) == 1 and len(link) == 1 and sp.expand(e - (m.q[mot[0]] - m.q[link[0]])) == 0:
-            pairs.append((link[0], mot[0], spring.stiffness))
-    return pairs
+        used = [i for i in range(len(m.coords)) if m.q[i] in e.free_symbols]
+        mot = [i for i in used if i in motors]
+        link = [i for i in used if i not in motors]
+        if len(mot) != 1 or len(link) != 1:
+            continue
+        on_delta = sp.expand(e.subs(m.q[mot[0]], m.q[link[0]] + delta))
+        if m.q[link[0]] not in on_delta.free_symbols:
+            pairs.setdefault((link[0], mot[0]), []).append((spring, on_delta, delta))
+    return [(lk, mt, springs) for (lk, mt), springs in pairs.items()]
+
+
+def _linear_stiffness(springs) -> sp.Expr:
+    """The stiffness K of the springs of one joint that are linear in delta = theta - q."""
+    K = sp.Integer(0)
+    for spring, on_delta, delta in springs:
+        if sp.Poly(on_delta, delta).degree() == 1:
+            K += spring.stiffness * on_delta.coeff(delta) ** 2
+    return K
+
+
+def _motor_reference(ctx, spec, m: Model, link, mot, qd, th_d_syms):
+    """theta_d solving the link equations at rest, g(q_d) + spring forces = 0: in closed form
+    when they are linear in theta (theta_d = q_d + K^-1 g(q_d)); with nonlinear springs the real
+    root, chosen at the exercise's numbers (q_d from the task's ``q_d``, else the configuration)."""
+    static = m.dyn.g + m.dyn.spring
+    at_rest = {m.q[i]: qd[k] for k, i in enumerate(link)}
+    at_rest.update({m.q[i]: th_d_syms[k] for k, i in enumerate(mot)})
+    eqs = [sp.expand(static[i].subs(at_rest, simultaneous=True)) for i in link]
+    linear = all(sp.Poly(e, *th_d_syms).total_degree() <= 1 for e in eqs)
+    if linear:
+        sol = sp.solve(eqs, th_d_syms, dict=True)
+        if len(sol) != 1:
+            raise ExerciseError("elastic_joints: the link equations at rest do not fix the motor positions")
+        return [sol[0][s] for s in th_d_syms], eqs, False
+    values = {p.symbol: p.value for p in m.robot.parameters.values()}
+    values.update({k_: v for k_, v in _given_values(ctx).items() if k_.name in m.robot.parameters})
+    at = m.mapping(spec.get("q_d"), "elastic_joints.q_d")
+    conf = m.mapping(ctx.exercise.configuration, "configuration")
+    qd_values = {qd[k]: at.get(m.q[i], conf.get(m.q[i], sp.Float(0.3))) for k, i in enumerate(link)}
+    out = []
+    for k, e in enumerate(eqs):
+        others = [s_ for s_ in th_d_syms if s_ in e.free_symbols and s_ != th_d_syms[k]]
+        if others:
+            raise ExerciseError("elastic_joints: nonlinear springs coupling several joints at rest are not "
+                                "supported (no closed form for theta_d)")
+        delta = sp.Dummy("delta")
+        on_delta = sp.expand(e.subs(th_d_syms[k], qd[k] + delta))
+        real = []
+        for r in sp.roots(sp.Poly(on_delta, delta), cubics=True, quartics=True) or sp.solve(on_delta, delta):
+            v = complex(sp.N(r.subs(values).subs(qd_values)))
+            if abs(v.imag) < 1e-9 * max(1.0, abs(v.real)):
+                real.append(r)
+        if len(real) != 1:
+            raise ExerciseError(f"elastic_joints: the nonlinear spring equation {sp.sstr(e)} = 0 has "
+                                f"{len(real)} real solutions for theta_d at the exercise's numbers: "
+                                "no unique motor reference")
+        out.append(qd[k] + real[0])
+    return out, eqs, True
 
 
 @task("elastic_joints")
@@ -771,24 +830,29 @@ def elastic_joints_task(ctx, spec):
     m = Model(ctx)
     pairs = _elastic_pairs(m)
     if not pairs:
-        raise ExerciseError("elastic_joints: the robot has no elastic joint (a spring K (theta - q) between "
+        raise ExerciseError("elastic_joints: the robot has no elastic joint (a spring on theta - q between "
                             "a motor coordinate with rotor inertia and a link coordinate)")
     link = [p[0] for p in pairs]
     mot = [p[1] for p in pairs]
-    Kvec = [p[2] for p in pairs]
     qL = sp.Matrix([m.q[i] for i in link])
     th = sp.Matrix([m.q[i] for i in mot])
     dth = sp.Matrix([m.dq[i] for i in mot])
-    K = sp.diag(*Kvec)
+    K = sp.diag(*[_linear_stiffness(p[2]) for p in pairs])
     B = sp.diag(*[m.robot.motor_inertias[m.coords[i]] for i in mot])
     lhs = m.M * m.ddq + m.n
     link_eq = m.tidy_matrix(lhs.extract(link, [0]))
     motor_eq = m.tidy_matrix(lhs.extract(mot, [0]))
-    g_link = (m.dyn.g).extract(link, [0])
     names = [m.coords[i] for i in link]
     qd = sp.Matrix([symbol(f"{c}_d") for c in names])
-    g_d = g_link.subs(dict(zip(qL, qd)), simultaneous=True)
-    theta_d = m.tidy_matrix(qd + K.inv() * g_d)
+    th_syms = [sp.Dummy(f"theta_d{k}") for k in range(len(mot))]
+    th_sol, rest_eqs, nonlinear = _motor_reference(ctx, spec, m, link, mot, qd, th_syms)
+    # a root of a nonlinear spring (cube roots) is no trigonometric polynomial: the law and V are
+    # built on placeholders theta_d<i>, replaced by the roots at the end
+    theta_d = sp.Matrix(th_syms) if nonlinear else m.tidy_matrix(sp.Matrix(th_sol))
+    roots = dict(zip(th_syms, th_sol)) if nonlinear else {}
+    # the constant motor torque that holds (q_d, theta_d): the spring force on the motor, equal
+    # to the gravity load of its link
+    g_d = m.tidy_matrix(m.dyn.g.extract(link, [0]).subs(dict(zip(qL, qd)), simultaneous=True))
     idx = [str(k + 1) for k in range(len(link))]
     kp = sp.diag(*[symbol(f"kp{i}") for i in idx])
     kd = sp.diag(*[symbol(f"kd{i}") for i in idx])
@@ -808,15 +872,24 @@ def elastic_joints_task(ctx, spec):
     gradU = sp.Matrix([sp.diff(U, qk) for qk in m.q])
     V_dot = (m.dq.T * (S * u - m.n) + m.dq.T * Mdot * m.dq / 2 + gradU.T * m.dq)[0]
     V_dot += (-(dth.T * kp * (theta_d - th)) - dth.T * g_d)[0]
-    V_dot = m.tidy(sp.expand(V_dot))
+    V_dot = m.tidy(sp.expand(V_dot)).xreplace(roots)
+    V = m.tidy(sp.expand(V)).xreplace(roots)
+    theta_d, u = theta_d.xreplace(roots), u.xreplace(roots)
     L = lambda x: latex_law_elastic(m, x)
     ctx.step("Link and motor equations",
-             rf"M(q)\ddot q + c(q,\dot q) + g(q) + K(q - \theta) = 0:\ {m.L(link_eq)} = 0,\quad "
-             rf"B\ddot\theta + K(\theta - q) = u:\ {m.L(motor_eq)} = u",
+             rf"M(q)\ddot q + c(q,\dot q) + g(q) + \tau_K(q - \theta) = 0:\ {m.L(link_eq)} = 0,\quad "
+             rf"B\ddot\theta + \tau_K(\theta - q) = u:\ {m.L(motor_eq)} = u",
              "Reduced model of elastic joints: the motors drive the links only through the springs.",
              bodies=m.bodies_of(link), joints=m.bodies_of(link))
-    ctx.step("Motor reference", rf"\theta_d = q_d + K^{{-1}} g(q_d) = {L(theta_d)}",
-             "At the desired rest configuration the springs must carry the gravity load.")
+    if nonlinear:
+        rest = sp.Matrix([e.subs(dict(zip(th_syms, th))) for e in rest_eqs])
+        ctx.step("Motor reference (nonlinear springs)",
+                 rf"{L(rest)} = 0\ \Rightarrow\ \theta = \theta_d = {L(theta_d)}",
+                 "At rest the springs must carry the gravity load; with nonlinear springs the deflection "
+                 "is the real root of this equation (the only real one at the exercise's numbers).")
+    else:
+        ctx.step("Motor reference", rf"\theta_d = q_d + K^{{-1}} g(q_d) = {L(theta_d)}",
+                 "At the desired rest configuration the springs must carry the gravity load.")
     ctx.step("Motor PD with constant gravity compensation",
              rf"u = K_P(\theta_d - \theta) - K_D\dot\theta + g(q_d) = {L(u)}",
              "Only motor positions and velocities are fed back; with K and K_P large enough with respect "
@@ -831,7 +904,7 @@ def elastic_joints_task(ctx, spec):
     ctx.answer("motor_equations", motor_eq)
     ctx.answer("theta_d", theta_d)
     ctx.answer("u", u)
-    ctx.answer("V", m.tidy(sp.expand(V)))
+    ctx.answer("V", V)
     ctx.answer("V_dot", V_dot)
 
 
