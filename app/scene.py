@@ -199,7 +199,7 @@ def coordinate_ranges(robot: RobotModel, scale: float = 1.0) -> Dict[str, Tuple[
     [-scale, scale] for coordinates that move a prismatic joint; always containing the default.
 
     >>> from app.core.robot import load_robot
-    >>> coordinate_ranges(load_robot("rp_2004_03_25"), 0.8)["q2"]
+    >>> coordinate_ranges(load_robot("rp_2004_03_25"), 0.8)["q2"]       # exact: -scale, scale
     (-0.8, 0.8)
     """
     prismatic = set()
@@ -463,7 +463,7 @@ def camera_pose(framing: Framing, fov: float = math.radians(50), aspect: float =
 def quaternion_wxyz(R: np.ndarray) -> np.ndarray:
     """Unit quaternion (w, x, y, z) of a rotation matrix.
 
-    >>> quaternion_wxyz(np.eye(3)).tolist()
+    >>> (np.round(quaternion_wxyz(np.eye(3)), 12) + 0.0).tolist()
     [1.0, 0.0, 0.0, 0.0]
     """
     m = R

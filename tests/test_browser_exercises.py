@@ -33,7 +33,7 @@ def test_variant_fields_parse_numbers_expressions_and_lists():
     assert f["l1"].unit == "m" and f["q1"].text == "pi/4" and f["tau_a"].text == "[-0.25, -0.75, 0]"
     assert "m1" in f and f["m1"].section == "parameter"          # a robot parameter not given
     assert parse_field(f["q1"], "pi/3") == pytest.approx(np.pi / 3)
-    assert parse_field(f["tau_a"], "[0.1, -1/2, 0]") == [0.1, -0.5, 0.0]
+    assert parse_field(f["tau_a"], "[0.1, -1/2, 0]") == pytest.approx([0.1, -0.5, 0.0], abs=1e-15)
     for name, bad, message in (("m1", "-0.5", "must not be negative"), ("l1", "abc", "not a number"),
                                ("l1", "", "empty value"), ("q1", "1/0", "division by zero")):
         with pytest.raises(UserError, match=message):

@@ -180,7 +180,7 @@ def test_collocated_pfl_on_the_rp_robot_gives_ddq1_equal_a1_and_the_exam_law():
     res = simulate("rp_2004_03_25", "pfl_collocated", reference="quintic goal=0.8 T=1.5", passive=["q2"],
                    q0=[0.0, 0.1], duration=1.5, gains={"Kp": 100, "Kd": 20})
     assert res.completed and res.reference_names == ["q1"]
-    assert np.all(res.tau[:, 1] == 0.0)
+    assert np.abs(res.tau[:, 1]).max() < 1e-12          # the passive joint
     a1 = res.internals["a_q1"]
     assert np.max(np.abs(res.ddq[:, 0] - a1)) < 1e-9 * max(1.0, np.abs(a1).max())
     q1, q2 = res.q[:, 0], res.q[:, 1]
@@ -210,7 +210,7 @@ def test_noncollocated_pfl_on_the_rp_robot_gives_ddq2_equal_a2_and_the_exam_law(
     u1 = ((m2 * l1 - B / l1) * a2 + 2 * m2 * q2 * dq1 * dq2 + B * q2 / l1 * dq1 ** 2
           + g0 * (md3 * np.sin(q1) + m2 * q2 * np.cos(q1)) - B * g0 / l1 * np.sin(q1))   # L121
     assert np.max(np.abs(res.tau[:, 0] - u1)) < 1e-9 * np.abs(u1).max()
-    assert np.all(res.tau[:, 1] == 0.0)
+    assert np.abs(res.tau[:, 1]).max() < 1e-12          # the passive joint
 
 
 def test_pfl_needs_a_passive_joint():
@@ -232,7 +232,7 @@ def test_elastic_joint_pd_with_gravity_compensation_regulates_links_and_motors()
     assert res.internals["theta_d_theta2"][0] == pytest.approx(theta_d[1], abs=1e-10)
     assert np.max(np.abs(res.q[-1, :2] - qd)) < 1e-5
     assert np.max(np.abs(res.q[-1, 2:] - theta_d)) < 1e-5
-    assert np.all(res.tau[:, :2] == 0.0)
+    assert np.abs(res.tau[:, :2]).max() < 1e-12
 
 
 def test_elastic_joint_motor_pd_without_gravity_lyapunov_2024_06_12():
@@ -262,7 +262,7 @@ def test_elastic_joint_online_gravity_compensation_reaches_the_same_equilibrium(
     const = simulate(robot, "elastic_pd", reference="setpoint goal=0.5,0.3", q0=[0, 0, 0, 0], duration=0.01)
     theta_d = [const.internals["theta_d_theta1"][0], const.internals["theta_d_theta2"][0]]
     assert np.allclose(res.q[-1], [0.5, 0.3] + theta_d, atol=1e-5)
-    assert np.abs(res.tau[:, :2]).max() == 0.0
+    assert np.abs(res.tau[:, :2]).max() < 1e-12
 
 
 # ---------------------------------------------------------------------- interaction control
@@ -320,7 +320,7 @@ def test_hybrid_force_velocity_control_on_a_rigid_surface(mismatch):
     force = res.forces["ee"]                                   # on the robot, world frame
     ys = np.array([ee.position(q)[1] for q in res.q])
     assert np.max(np.abs(ys - p0[1])) < 1e-6                   # the point stays on the surface
-    assert np.max(np.abs(force[:, 0])) == 0.0                  # frictionless: normal force only
+    assert np.max(np.abs(force[:, 0])) < 1e-12                  # frictionless: normal force only
     sensed = res.internals["lambda"]
     assert sensed[0] > 40                                      # before control: the arm's weight
     if mismatch is None:

@@ -138,7 +138,7 @@ def test_parameter_fields_accept_numbers_only(text, ok):
 
 def test_negative_lengths_are_allowed_but_not_negative_inertias():
     robot = load_robot("planar_2r")
-    assert parse_parameter(robot, "d1", "-0.2") == -0.2
+    assert parse_parameter(robot, "d1", "-0.2") == pytest.approx(-0.2, abs=1e-15)
     with pytest.raises(ParameterError):
         parse_parameter(robot, "I1", "-0.2")
 

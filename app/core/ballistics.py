@@ -64,17 +64,26 @@ class Flight:
     def distance_from_release(self) -> float:
         return self.landing_x - self.release[0]
 
-    def path(self, n: int = 100) -> np.ndarray:
-        """(n, 2) points of the parabola from release to landing.
+    def position_at(self, t) -> np.ndarray:
+        """Ball position(s) (x, y) [m] at time(s) t [s] after the release, shape (..., 2). From the
+        flight time on, the ball lies at its landing point: y is exactly 0 there, not a rounding of it.
 
-        >>> Flight((0.0, 1.0), (1.0, 0.0), 9.81).path(3)[-1].round(6).tolist()
+        >>> flight = Flight((0.0, 1.0), (1.0, 0.0), 9.81)
+        >>> [f"{v:.6f}" for v in flight.position_at(0.2)], bool(flight.position_at(5.0)[1] == 0)
+        (['0.200000', '0.803800'], True)
+        """
+        t = np.minimum(np.asarray(t, dtype=float), self.time)
+        x = self.release[0] + self.velocity[0] * t
+        y = np.where(t < self.time, self.release[1] + self.velocity[1] * t - 0.5 * self.g * t * t, 0.0)
+        return np.stack([x, y], axis=-1)
+
+    def path(self, n: int = 100) -> np.ndarray:
+        """(n, 2) points of the parabola from release to landing (the last one on the ground).
+
+        >>> Flight((0.0, 1.0), (1.0, 0.0), 9.81).path(3)[-1].round(6).tolist()    # on the ground: y exactly 0
         [0.451524, 0.0]
         """
-        t = np.linspace(0.0, self.time, n)
-        x = self.release[0] + self.velocity[0] * t
-        y = self.release[1] + self.velocity[1] * t - 0.5 * self.g * t * t
-        y[-1] = 0.0
-        return np.column_stack([x, y])
+        return self.position_at(np.linspace(0.0, self.time, n))
 
 
 def best_angle(speed: float, height: float, g: float = G_DEFAULT) -> Tuple[float, float]:

@@ -38,7 +38,7 @@ class ContactError(UserError):
 def static_torque(J, F) -> np.ndarray:
     """Joint torque J^T F produced by a force (or wrench) F applied where J is the Jacobian.
 
-    >>> static_torque([[1.0, 0.0], [0.0, 1.0]], [2.0, 3.0]).tolist()
+    >>> static_torque([[1.0, 0.0], [0.0, 1.0]], [2.0, 3.0]).tolist()      # exact: products with 0 and 1
     [2.0, 3.0]
     """
     return np.atleast_2d(np.asarray(J, float)).T @ np.asarray(F, float).reshape(-1)
@@ -133,7 +133,7 @@ def hybrid_selection(rotation, force_axes: Sequence[int]) -> HybridSelection:
     """Projectors R S R^T on the force- and velocity-controlled directions of a task frame R.
 
     >>> h = hybrid_selection(rotation2(0.0), [1])
-    >>> h.S_force.tolist(), h.S_velocity.tolist()
+    >>> h.S_force.tolist(), h.S_velocity.tolist()       # exact: cos 0 = 1, sin 0 = 0, entries 0 and 1
     ([[0.0, 0.0], [0.0, 1.0]], [[1.0, 0.0], [0.0, 0.0]])
     """
     R = np.atleast_2d(np.asarray(rotation, float))

@@ -217,7 +217,7 @@ def make_controller(name: str, gains: Optional[Mapping[str, float]] = None) -> C
 def parse_gains(text: Optional[str]) -> Dict[str, float]:
     """``"Kp=100,Kd=20,Kp2=50"`` -> {'Kp': 100.0, 'Kd': 20.0, 'Kp2': 50.0}; values may use pi.
 
-    >>> parse_gains("Kp=100, Kd=2*10")
+    >>> parse_gains("Kp=100, Kd=2*10")        # exact: integers
     {'Kp': 100.0, 'Kd': 20.0}
     """
     out: Dict[str, float] = {}

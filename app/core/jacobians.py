@@ -19,7 +19,7 @@ structure with zero joint torques, since J^T F = 0), and the manipulability sqrt
 >>> J[0, 1]
 -l2*sin(q1 + q2)
 >>> Jn = evaluate(robot, J, [0.0, 1.5707963267948966], {"l1": 1.0, "l2": 1.0})
->>> np.round(Jn, 6).tolist()
+>>> (np.round(Jn, 6) + 0.0).tolist()         # + 0.0 turns a rounded -0.0 into 0.0
 [[-1.0, -1.0], [1.0, 0.0]]
 >>> analyze(Jn).rank
 2
@@ -206,7 +206,7 @@ def analyze(J, threshold: float = DEFAULT_THRESHOLD) -> SingularityAnalysis:
     singular values).
 
     >>> a = analyze([[0, 0, 0, 0], [2, 1.5, 1, 0.5]])
-    >>> a.rank, a.null_space.shape, np.round(a.left_null_space.ravel(), 6).tolist()
+    >>> a.rank, a.null_space.shape, np.round(np.abs(a.left_null_space.ravel()), 6).tolist()
     (1, (4, 3), [1.0, 0.0])
     """
     J = np.atleast_2d(np.asarray(J, dtype=float))

@@ -17,7 +17,7 @@ Second-order and jerk-level inversion of differential kinematics: ``second_order
 (q'' = J^# (p'' - J' q')) and ``jerk_inversion`` (q''' = J^# (p''' - 2 J' q'' - J'' q')).
 
 >>> law = TimingLaw.trapezoidal(delta=1.0, T=2.0, Ts=0.5)
->>> round(law.V, 4), round(law.A, 4), float(law(1.0)[0])
+>>> round(law.V, 4), round(law.A, 4), round(float(law(1.0)[0]), 4)
 (0.6667, 1.3333, 0.5)
 >>> round(trapezoid_min_time(5, V=3, A=9).T, 4)
 2.0

@@ -234,7 +234,7 @@ class TaskPoint:
 
     >>> from app.core.robot import load_robot
     >>> ee = TaskPoint(load_robot("planar_2r"), "ee")
-    >>> ee.position(np.array([0.0, 0.0])).tolist(), ee.dim
+    >>> (ee.position(np.array([0.0, 0.0])).round(6) + 0.0).tolist(), ee.dim
     ([1.8, 0.0], 2)
     """
 
@@ -938,8 +938,8 @@ def _pad3(points: np.ndarray) -> np.ndarray:
 def parse_numbers(text: Optional[str], what: str) -> Optional[List[float]]:
     """'0.1, -pi/4' -> [0.1, -0.785...]; None for None; a UserError names ``what`` otherwise.
 
-    >>> parse_numbers("1, pi/2", "--q0")
-    [1.0, 1.5707963267948966]
+    >>> np.round(parse_numbers("1, pi/2", "--q0"), 6).tolist()
+    [1.0, 1.570796]
     """
     from .expressions import ExpressionError, parse_expression
     if text is None:
@@ -961,7 +961,7 @@ def parse_numbers(text: Optional[str], what: str) -> Optional[List[float]]:
 def parse_assignments(text: Optional[str], what: str) -> Dict[str, float]:
     """'m2=7, I2=0.3' -> {'m2': 7.0, 'I2': 0.3}.
 
-    >>> parse_assignments("m2=7, d2=1/2", "--plant")
+    >>> parse_assignments("m2=7, d2=1/2", "--plant")        # exact: 1/2 is a float
     {'m2': 7.0, 'd2': 0.5}
     """
     out = {}
@@ -981,9 +981,9 @@ def parse_contact(kind: str, text: str) -> Union[PointForce, Surface]:
     [offset=o] [k=stiffness d=damping] [at=x,y,z]') from text; POINT is a named point, or a body
     with ``at=`` its local position.
 
-    >>> parse_contact("force", "link2 F=-10,0 from=1 at=0.4,0,0")
+    >>> parse_contact("force", "link2 F=-10,0 from=1 at=0.4,0,0")     # exact: numbers as typed
     PointForce(point=('link2', [0.4, 0.0, 0.0]), force=[-10.0, 0.0], start=1.0, end=inf, moment=None)
-    >>> parse_contact("surface", "ee normal=0,1 k=5000")
+    >>> parse_contact("surface", "ee normal=0,1 k=5000")              # exact: numbers as typed
     Surface(point='ee', normal=[0.0, 1.0], offset=None, stiffness=5000.0, damping=0.0)
     """
     keys = {"force": ("F", "M", "from", "to", "at"), "surface": ("normal", "offset", "k", "d", "at")}[kind]

@@ -54,7 +54,7 @@ class JointPath:
     def line(start, goal) -> "JointPath":
         """The straight joint-space segment start -> goal.
 
-        >>> JointPath.line([0, 1], [2, 1]).q(np.array([0.5])).tolist()
+        >>> JointPath.line([0, 1], [2, 1]).q(np.array([0.5])).round(12).tolist()
         [[1.0, 1.0]]
         """
         q0 = np.asarray(start, float).reshape(-1)

@@ -113,7 +113,7 @@ class ThrowSpec:
     def to_config(self) -> dict:
         """The throw as a CLI config mapping (psi in degrees).
 
-        >>> thesis_throw("throw2").to_config()["psi_deg"]
+        >>> thesis_throw("throw2").to_config()["psi_deg"]      # exact: as read from the file
         37.099
         """
         out = {"theta_b": self.theta_b, "theta_e": self.theta_e, "psi_deg": round(self.psi_deg, 12),
@@ -130,7 +130,7 @@ class ThrowSpec:
 def elevate_bezier(points: Sequence[float], degree: int) -> List[float]:
     """Control points of the same Bezier polynomial written with a higher degree.
 
-    >>> elevate_bezier([0.0, 1.0], 2)
+    >>> [round(v, 12) + 0.0 for v in elevate_bezier([0.0, 1.0], 2)]
     [0.0, 0.5, 1.0]
     """
     c = [float(v) for v in points]
@@ -146,7 +146,7 @@ def thesis_throw(name: str) -> ThrowSpec:
     """One of the thesis's three throws as printed (``throw1``..``throw3``, Tables 5.1-5.3), from the
     shipped throw files in app/throws/.
 
-    >>> thesis_throw("throw2").psi_deg
+    >>> thesis_throw("throw2").psi_deg          # exact: as read from the file
     37.099
     """
     return load_throw_config(name).spec
@@ -195,7 +195,7 @@ def model_overrides(block) -> Dict[str, float]:
     link, counter-clockwise positive), J (inertia about the CoM, axis normal to the plane), given as
     ``link2: {m: 3.9}`` (or ``2: {...}``) or flat as ``m2: 3.9``; and g, l0, platform.
 
-    >>> model_overrides({"link3": {"c": 0.1, "J": 0.01}, "g": 9.8, "m1": 4})
+    >>> model_overrides({"link3": {"c": 0.1, "J": 0.01}, "g": 9.8, "m1": 4})     # exact: the values given
     {'c3': 0.1, 'J3': 0.01, 'g': 9.8, 'm1': 4.0}
     """
     if block is None:
@@ -286,8 +286,8 @@ def load_throw_config(name_or_path: str) -> ThrowConfig:
 def bernstein(degree: int, s: np.ndarray, derivative: int = 0) -> np.ndarray:
     """Matrix (len(s), degree + 1) mapping control points to the ``derivative``-th s-derivative.
 
-    >>> bernstein(2, np.array([0.5])) @ np.array([0.0, 1.0, 0.0])
-    array([0.5])
+    >>> (bernstein(2, np.array([0.5])) @ np.array([0.0, 1.0, 0.0])).round(12).tolist()
+    [0.5]
     """
     s = np.asarray(s, dtype=float)
     n = degree - derivative
@@ -312,7 +312,9 @@ def _cheb_tables(P: int):
         e = np.zeros(P)
         e[m] = 1.0
         W[:, m] = npcheb.chebval(x, npcheb.chebint(e, lbnd=-1))
-    return x, Vinv, W @ Vinv
+    S = W @ Vinv
+    S[0] = 0.0              # the integral from -1 to the first node (-1 itself) is 0, not a rounding of it
+    return x, Vinv, S
 
 
 class ChebPieces:
@@ -823,8 +825,9 @@ class Throw:
                           self.arm.ball_position(q), self.arm.ball_velocity(q, dq))
 
     def sample(self, n: int = 200) -> Trajectory:
-        """n samples uniform in time from t = 0 to the release."""
-        return self.along(self.theta_at(np.linspace(0.0, self.duration, n)))
+        """n samples uniform in time from t = 0 to the release (their times exactly those, the first 0)."""
+        t = np.linspace(0.0, self.duration, n)
+        return replace(self.along(self.theta_at(t)), t=t)
 
     def check(self, grid: int = 2001, q1_min: Optional[float] = None) -> Feasibility:
         """Every limit of the robot file (positions, speeds, torques) on a uniform theta grid plus the
@@ -1200,8 +1203,8 @@ def _smooth_min(values: np.ndarray) -> np.ndarray:
     """Minimum over the last axis of samples on a uniform grid, refined by a parabola through the
     smallest sample and its neighbours (so that it moves smoothly with the function).
 
-    >>> float(_smooth_min(np.array([(np.linspace(-1, 1, 9) - 0.1) ** 2])).round(12)[0])
-    0.0
+    >>> bool(abs(_smooth_min(np.array([(np.linspace(-1, 1, 9) - 0.1) ** 2]))[0]) < 1e-12)
+    True
     """
     j = np.clip(np.argmin(values, axis=-1), 1, values.shape[-1] - 2)[..., None]
     f0, f1, f2 = (np.take_along_axis(values, j + d, axis=-1)[..., 0] for d in (-1, 0, 1))

@@ -9,7 +9,7 @@ their bounds: an arc around each revolute joint, a bar along each prismatic one,
 grey), ``points`` (markers), ``path`` (a polyline). ``scale`` and ``profile`` are shown in the
 panel. Arrows of one step share one length scale so that they can be compared.
 
->>> arc_points([0, 0, 0], [0, 0, 1], [1, 0, 0], 1.0, 0.0, np.pi / 2, segments=2).round(3).tolist()
+>>> (arc_points([0, 0, 0], [0, 0, 1], [1, 0, 0], 1.0, 0.0, np.pi / 2, segments=2).round(3) + 0.0).tolist()
 [[1.0, 0.0, 0.0], [0.707, 0.707, 0.0], [0.0, 1.0, 0.0]]
 """
 from __future__ import annotations
@@ -89,7 +89,7 @@ def fitting_scale(start, vector, center, radius: float, planar: bool = False) ->
     """Largest s >= 0 with |start + s vector - center| <= radius (0 when start is outside);
     in the plane z = 0 only for a planar robot.
 
-    >>> fitting_scale([0, 0, 0], [1, 0, 0], [0, 0, 0], 2.0)
+    >>> round(fitting_scale([0, 0, 0], [1, 0, 0], [0, 0, 0], 2.0), 12)
     2.0
     """
     a = np.asarray(start, float) - np.asarray(center, float)

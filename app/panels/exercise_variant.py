@@ -14,7 +14,7 @@ whitelist parser.
 >>> f = {x.key: x for x in fields(ex, load_robot(ex.robot_ref))}
 >>> f["given:V"].text
 '[1, 1.5, 2]'
->>> parse_field(f["given:V"], "[1, 1.2, 2]")
+>>> parse_field(f["given:V"], "[1, 1.2, 2]")          # exact: the numbers typed
 [1.0, 1.2, 2.0]
 >>> parse_field(f["given:V"], "[1, 2]")
 Traceback (most recent call last):

@@ -65,8 +65,8 @@ def build(session) -> None:
 def parse_points(text: str, name: str) -> List[float]:
     """Control points typed as numbers or constant expressions, separated by commas (or spaces).
 
-    >>> parse_points("1.7, pi/2, 1.3", "a")
-    [1.7, 1.5707963267948966, 1.3]
+    >>> [round(v, 6) for v in parse_points("1.7, pi/2, 1.3", "a")]
+    [1.7, 1.570796, 1.3]
     >>> parse_points("1.7, x", "a")
     Traceback (most recent call last):
     ...

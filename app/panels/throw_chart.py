@@ -32,7 +32,7 @@ class ChartGeometry:
     angle range [lo, hi] [rad] it shows.
 
     >>> g = ChartGeometry(0.0, -1.5, 2.0, 1.0, 0.0, 2.0)
-    >>> g.point(0.5, 1.0).tolist(), g.value(-0.75)
+    >>> g.point(0.5, 1.0).round(12).tolist(), round(g.value(-0.75), 12)
     ([1.0, -1.0], 1.5)
     """
     x0: float
@@ -57,7 +57,7 @@ class ChartGeometry:
 def nice_step(span: float, count: int = 5) -> float:
     """A round tick spacing (1, 2, 2.5 or 5 times a power of ten) giving about ``count`` ticks.
 
-    >>> nice_step(1.3), nice_step(1.1), nice_step(0.2)
+    >>> tuple(round(nice_step(span), 12) for span in (1.3, 1.1, 0.2))
     (0.5, 0.25, 0.05)
     """
     raw = max(span, 1e-9) / count
@@ -71,7 +71,7 @@ def nice_step(span: float, count: int = 5) -> float:
 def fit_range(values: Sequence[float], pad: float = 0.12) -> Tuple[float, float]:
     """An angle range on round ticks that holds every finite value with a margin.
 
-    >>> fit_range([0.33, 1.73])
+    >>> tuple(round(v, 12) + 0.0 for v in fit_range([0.33, 1.73]))
     (0.0, 2.0)
     """
     v = np.asarray(values, float)
@@ -86,7 +86,7 @@ def fit_range(values: Sequence[float], pad: float = 0.12) -> Tuple[float, float]
 def curve_samples(points: Sequence[float], s: np.ndarray) -> np.ndarray:
     """The Bezier polynomial with control points ``points`` at s.
 
-    >>> curve_samples([0.0, 1.0, 0.0], np.array([0.5])).tolist()
+    >>> curve_samples([0.0, 1.0, 0.0], np.array([0.5])).round(12).tolist()
     [0.5]
     """
     return bernstein(len(points) - 1, s) @ np.asarray(points, float)

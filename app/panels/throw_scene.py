@@ -133,7 +133,7 @@ def throw_camera(region: Tuple[float, float, float, float], width: int, height: 
     panel.
 
     >>> pos, look, up = throw_camera((-1.0, 3.0, -1.0, 2.0), 1280, 720)
-    >>> bool(pos[2] > 0 and look[0] > 1.0 and pos[1] == 0.5), up.tolist()
+    >>> bool(pos[2] > 0 and look[0] > 1.0 and abs(pos[1] - 0.5) < 1e-12), up.tolist()     # exact: up is set
     (True, [0.0, 1.0, 0.0])
     """
     x0, x1, y0, y1 = region

@@ -357,7 +357,7 @@ class SceneView:
 def _nice_cell(step: float) -> float:
     """A round grid spacing (1, 2 or 5 times a power of ten) near ``step``.
 
-    >>> _nice_cell(0.13), _nice_cell(0.04)
+    >>> round(_nice_cell(0.13), 12), round(_nice_cell(0.04), 12)
     (0.1, 0.05)
     """
     exp = np.floor(np.log10(step))

@@ -42,7 +42,7 @@ def parse_parameter(robot, name: str, text: str) -> float:
     ``pi/4``), finite, and not negative for masses, inertias, stiffnesses and friction.
 
     >>> from app.core.robot import load_robot
-    >>> parse_parameter(load_robot("planar_2r"), "m1", " 2.5 ")
+    >>> parse_parameter(load_robot("planar_2r"), "m1", " 2.5 ")      # exact: the number typed
     2.5
     >>> parse_parameter(load_robot("planar_2r"), "m1", "-1")
     Traceback (most recent call last):
