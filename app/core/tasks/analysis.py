@@ -17,12 +17,15 @@ Task kinds (options -> answers):
   ``balance_<name>`` (each value), ``g_balanced`` (g with those values, ``zero`` not applied),
   ``g_zeroed`` (g with the ``zero`` parameters at 0, before balancing).
 - ``factorizations``: the Christoffel factorization S and a second one, S', that puts each product
-  q'_j q'_k (j <= k) in column k; whether M' - 2S is skew-symmetric for each. Answers: ``S``,
+  q'_j q'_k (j <= k) in column k (``alternative: first``: in column j), or S' = S + S0 with a
+  given ``plus: S0`` (S0 q' = 0 is checked); whether M' - 2S is skew-symmetric for each. Answers: ``S``,
   ``S_alt``, ``Mdot``, ``Mdot_minus_2S``, ``Mdot_minus_2S_alt``, ``skew_S``, ``skew_S_alt``,
   ``momentum`` (p = M q'), ``ST_dq`` (S^T q', the term of the momentum-based residual).
 - ``coordinate_map``: new coordinates theta with q = f(theta) (e.g. relative angles from absolute
   ones). Options: ``map`` (old coordinate -> expression of the new symbols), ``new`` (names of
-  the new coordinates, in order). Answers: ``T`` (dq/dtheta), ``M_new`` (T^T M(f(theta)) T),
+  the new coordinates, in order), or ``forward`` (new coordinate -> function of q: an expression,
+  ``{point, component}`` or ``{angle: body}``; inverted in closed form). Answers: ``T``
+  (dq/dtheta), ``q_of_new`` (f), ``J_forward`` (with ``forward``), ``M_new`` (T^T M(f(theta)) T),
   ``g_new`` (T^T g), ``force_map`` (T^T: tau_theta = T^T tau_q).
 - ``point_kinematics``: a point of the robot (a named point, or ``{body, at}`` whose position may
   hold free symbols such as a contact abscissa). Options: ``point``, ``components`` (default
@@ -572,11 +575,7 @@ def factorizations_task(ctx, spec):
     n = len(a.coords)
     Ck = [a.apply(Ci) for Ci in a.dyn.christoffel]
     S = a.tidy_matrix(a.C)
-    S_alt = sp.zeros(n, n)
-    for i in range(n):
-        for k in range(n):
-            S_alt[i, k] = sum(((2 if j < k else 1) * Ck[i][j, k] * a.dq[j] for j in range(k + 1)), sp.Integer(0))
-    S_alt = a.tidy_matrix(S_alt)
+    S_alt, how = _other_factorization(a, Ck, S)
     Mdot = a.tidy_matrix(sum((a.M.diff(a.q[k]) * a.dq[k] for k in range(n)), sp.zeros(n, n)))
     N1 = a.tidy_matrix(Mdot - 2 * S)
     N2 = a.tidy_matrix(Mdot - 2 * S_alt)
@@ -591,8 +590,7 @@ def factorizations_task(ctx, spec):
     a.ctx.step("Skew-symmetry check", rf"\dot M - 2S = {a.L(N1)}",
                "Skew-symmetric: q'^T (M' - 2S) q' = 0, the property used by passivity-based laws." if skew1
                else "Not skew-symmetric.")
-    a.ctx.step("Another factorization", rf"S'(q,\dot q) = {a.L(S_alt)},\quad S'\dot q = c(q,\dot q)",
-               "Each product q'_j q'_k (j <= k) of c_i is written as (coefficient times q'_j) times q'_k, in column k.")
+    a.ctx.step("Another factorization", rf"S'(q,\dot q) = {a.L(S_alt)},\quad S'\dot q = c(q,\dot q)", how)
     a.ctx.step("Skew-symmetry check of S'", rf"\dot M - 2S' = {a.L(N2)}",
                "Also skew-symmetric (here the two factorizations give the same property)." if skew2
                else "Not skew-symmetric: S' also gives c = S' q', but M' - 2S' is not skew.")
@@ -610,19 +608,52 @@ def factorizations_task(ctx, spec):
     a.answer("ST_dq", ST)
 
 
+def _other_factorization(a: _Analysis, Ck, S):
+    """A second factorization c = S' q' and how it was built: each product q'_j q'_k (j <= k) of
+    c_i in column k (``alternative: last``, default) or in column j (``first``), or S' = S + S0 with
+    a given S0(q') such that S0 q' = 0 (``plus``)."""
+    n = len(a.coords)
+    if a.spec.get("plus") is not None:
+        raw = a.spec["plus"]
+        if not isinstance(raw, list) or len(raw) != n or any(not isinstance(r, list) or len(r) != n for r in raw):
+            raise a.fail("plus", f"expected a {n}x{n} matrix of expressions of the velocities")
+        S0 = sp.Matrix([[a.expr(e, "plus") for e in row] for row in raw])
+        if not all(_is_zero(e) for e in S0 * a.dq):
+            raise a.fail("plus", "S0 q' must vanish for every q' (otherwise S + S0 no longer factorizes c)")
+        return a.tidy_matrix(S + S0), (rf"S' = S + S_0,\ S_0 = {a.L(S0)}: S_0\dot q = 0, so S'\dot q = c as well.")
+    first = {"first": True, "last": False}.get(a.spec.get("alternative", "last"))
+    if first is None:
+        raise a.fail("alternative", "expected 'first' or 'last' (the column of each product q'_j q'_k)")
+    S_alt = sp.zeros(n, n)
+    for i in range(n):
+        for j in range(n):
+            for k in range(j, n):
+                coeff = (2 if j < k else 1) * Ck[i][j, k]
+                if first:
+                    S_alt[i, j] += coeff * a.dq[k]
+                else:
+                    S_alt[i, k] += coeff * a.dq[j]
+    col = "j" if first else "k"
+    return a.tidy_matrix(S_alt), (f"Each product q'_j q'_k (j <= k) of c_i is written as its coefficient times the "
+                                  f"other velocity, in column {col}.")
+
+
 # ====================================================================== changes of coordinates
 @task("coordinate_map")
 def coordinate_map_task(ctx, spec):
     """Model in new coordinates theta with q = f(theta) (see the module docstring)."""
     a = _Analysis(ctx, spec, "coordinate_map")
-    new = spec.get("new")
-    if not isinstance(new, list) or len(new) != len(a.coords) or not all(isinstance(x, str) and x.isidentifier() for x in new):
-        raise a.fail("new", f"expected a list of {len(a.coords)} new coordinate names")
+    if spec.get("forward") is not None:
+        new, f = _invert_forward_map(a)
+    else:
+        new = spec.get("new")
+        if not isinstance(new, list) or len(new) != len(a.coords) or not all(isinstance(x, str) and x.isidentifier() for x in new):
+            raise a.fail("new", f"expected a list of {len(a.coords)} new coordinate names")
+        raw = spec.get("map")
+        if not isinstance(raw, dict) or set(map(str, raw)) != set(a.coords):
+            raise a.fail("map", f"expected one expression of the new coordinates for each of {', '.join(a.coords)}")
+        f = sp.Matrix([a.expr(raw[c], f"map.{c}") for c in a.coords])
     theta = [symbol(x) for x in new]
-    raw = spec.get("map")
-    if not isinstance(raw, dict) or set(map(str, raw)) != set(a.coords):
-        raise a.fail("map", f"expected one expression of the new coordinates for each of {', '.join(a.coords)}")
-    f = sp.Matrix([a.expr(raw[c], f"map.{c}") for c in a.coords])
     stray = set().union(*[e.free_symbols for e in f]) & (set(a.q) - set(theta))
     if stray:
         raise a.fail("map", f"the expressions must use the new coordinates, not {sorted(s.name for s in stray)}")
@@ -641,9 +672,52 @@ def coordinate_map_task(ctx, spec):
     a.ctx.step("Forces in the new coordinates", rf"\tau_\theta = T^T \tau_q,\quad T^T = {a.L(T.T)},\quad g_\theta = {to_latex(g_new, new)}",
                "Virtual work: tau_theta^T theta' = tau_q^T q'.")
     a.answer("T", T)
+    a.answer("q_of_new", f)
     a.answer("M_new", M_new)
     a.answer("g_new", g_new)
     a.answer("force_map", T.T)
+
+
+def _forward_entry(a: _Analysis, name: str, raw) -> sp.Expr:
+    """A new coordinate as a function of q: an expression, ``{point, component}`` (x, y or z of a
+    named point) or ``{angle: body}`` (the orientation of a link of a planar robot)."""
+    from ..jacobians import planar_angle
+    where = f"forward.{name}"
+    if isinstance(raw, dict) and "angle" in raw:
+        if raw["angle"] not in [b.name for b in a.robot.bodies]:
+            raise a.fail(where, f"unknown body '{raw['angle']}'")
+        return planar_angle(a.robot, raw["angle"])
+    if isinstance(raw, dict) and "point" in raw:
+        pt = a.robot.points.get(raw["point"])
+        comp = {"x": 0, "y": 1, "z": 2}.get(raw.get("component"))
+        if pt is None or comp is None:
+            raise a.fail(where, "expected {point: NAME, component: x|y|z} with a named point of the robot")
+        return a.tidy(a.kin.point_position(pt.body, pt.position)[comp])
+    return a.expr(raw, where)
+
+
+def _invert_forward_map(a: _Analysis):
+    """New coordinates given as functions of q (``forward``): their names, and q as functions of them
+    (solved in closed form; one solution is required)."""
+    raw = a.spec["forward"]
+    if not isinstance(raw, dict) or len(raw) != len(a.coords) or not all(str(k).isidentifier() for k in raw):
+        raise a.fail("forward", f"expected {len(a.coords)} new coordinates, each name: function of q")
+    new = [str(k) for k in raw]
+    h = [_forward_entry(a, k, v) for k, v in raw.items()]
+    try:
+        sols = sp.solve([symbol(k) - e for k, e in zip(new, h)], list(a.q), dict=True)
+    except NotImplementedError:
+        sols = []
+    if len(sols) != 1 or set(sols[0]) != set(a.q):
+        raise a.fail("forward", f"cannot invert the map in closed form ({len(sols)} solution(s)): give q as "
+                     "functions of the new coordinates with new/map")
+    f = sp.Matrix([a.tidy(sols[0][qk]) for qk in a.q])
+    Jf = sp.Matrix(h).jacobian(a.q)
+    a.ctx.step("New coordinates", rf"{to_latex(sp.Matrix([symbol(k) for k in new]), new)} = {a.L(sp.Matrix(h))},\quad "
+               rf"J = \frac{{\partial h}}{{\partial q}} = {a.L(a.tidy_matrix(Jf))}",
+               "Solved for q below (closed form); J is invertible where the new coordinates are valid.")
+    a.answer("J_forward", a.tidy_matrix(Jf))
+    return new, f
 
 
 # ====================================================================== points

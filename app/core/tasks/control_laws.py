@@ -27,7 +27,11 @@ Task kinds (options -> answers):
 - ``computed_torque``: ``form`` feedback_linearization (default: u = M (q''_d + K_D e' + K_P e) + n)
   or passivity (u = M q''_d + C q'_d + g + k + F_v q'_d + K_P e + K_D e'). Answers: ``u``.
 - ``desired_torque``: nominal input along q_d(t). Options: ``trajectory`` (coordinate ->
-  expression of t). Answers: ``q_d``, ``dq_d``, ``ddq_d``, ``tau_d``.
+  expression of t, or a rest-to-rest motion ``{start, delta, duration, profile: cubic|quintic}``),
+  ``at`` (an instant t), ``substitute`` (parameter -> value applied to the model first, e.g.
+  ``{g0: 0}`` for a horizontal plane). Answers: ``q_d``, ``dq_d``, ``ddq_d``, ``tau_d``, and at ``at``:
+  ``q_d_at``, ``dq_d_at``, ``ddq_d_at``, ``tau_d_at`` (numbers, parameters from ``given``) and
+  the same names with ``_expr`` (symbolic).
 - ``regulation``: laws for a constant q_d. Answers: ``u_pd_gravity`` (PD + g(q)), ``dg_dq``,
   ``alpha`` (a bound on ||dg/dq||, sum of the absolute coefficients of each entry, combined in
   the Frobenius norm), ``u_pd_constant`` (PD + g(q_d), needs K_P > alpha), ``u_fl`` (feedback
@@ -362,12 +366,13 @@ def desired_torque_task(ctx, spec):
     if not isinstance(traj, dict) or set(traj) != set(m.coords):
         raise ExerciseError(f"desired_torque.trajectory: give an expression of t for each of {m.coords}")
     t = symbol("t")
-    qd = sp.Matrix([ctx.expr(traj[c], f"desired_torque.trajectory.{c}") for c in m.coords])
+    qd = sp.Matrix([_trajectory_entry(ctx, traj[c], f"desired_torque.trajectory.{c}", t) for c in m.coords])
     dqd, ddqd = qd.diff(t), qd.diff(t, 2)
     sub = dict(zip(m.q, qd))
     sub.update(zip(m.dq, dqd))
     sub.update(zip(m.ddq, ddqd))
-    tau = m.tidy_matrix((m.M * m.ddq + m.n).subs(sub, simultaneous=True))
+    fixed = m.mapping_of_parameters(spec.get("substitute"), "desired_torque.substitute")
+    tau = _tidy_or_plain(m, (m.M * m.ddq + m.n).subs(fixed).subs(sub, simultaneous=True))
     ctx.step("Desired motion", rf"q_d(t) = {m.L(qd)},\quad \dot q_d = {m.L(dqd)},\quad \ddot q_d = {m.L(ddqd)}",
              "Differentiate the desired trajectory twice.")
     ctx.step("Nominal torque", rf"\tau_d(t) = M(q_d)\ddot q_d + c(q_d,\dot q_d) + g(q_d) = {m.L(tau)}",
@@ -377,6 +382,45 @@ def desired_torque_task(ctx, spec):
     ctx.answer("dq_d", dqd)
     ctx.answer("ddq_d", ddqd)
     ctx.answer("tau_d", tau)
+    if spec.get("at") is not None:
+        t0 = ctx.expr(spec["at"], "desired_torque.at")
+        values = {p.symbol: p.value for p in m.robot.parameters.values()}
+        values.update({symbol(k): ctx.expr(v, f"given.{k}") for k, v in ctx.given.items()
+                       if isinstance(v, (int, float, str))})
+        exact = {"q_d_at": qd, "dq_d_at": dqd, "ddq_d_at": ddqd, "tau_d_at": tau}
+        exact = {k: _tidy_or_plain(m, v.subs(t, t0)) for k, v in exact.items()}
+        nums = {k: np.array(sp.N(v.subs(values).subs(values)), dtype=float).reshape(-1) for k, v in exact.items()}
+        ctx.step(f"At t = {t0}", rf"\tau_d({m.L(t0)}) = {m.L(exact['tau_d_at'])} = {m.L(sp.Matrix(np.round(nums['tau_d_at'], 4)))}",
+                 "The same expressions at the given instant, then with the exercise's numbers.",
+                 joints=[b.name for b in m.robot.bodies])
+        for k, v in exact.items():
+            ctx.answer(k.replace("_at", "_at_expr"), v)
+            ctx.answer(k, nums[k])
+
+
+def _tidy_or_plain(m, mat) -> sp.Matrix:
+    """The compact trigonometric form when the angles are sums of symbols (tidy), else as it is
+    (e.g. cos of a polynomial in t)."""
+    try:
+        return m.tidy_matrix(mat)
+    except sp.PolynomialError:
+        return sp.Matrix(mat)
+
+
+def _trajectory_entry(ctx, raw, where: str, t):
+    """An expression of t, or a rest-to-rest motion {start, delta, duration, profile: cubic|quintic}
+    (the normalized polynomial of the profile, held at start + delta after the duration)."""
+    from .underactuated import _PROFILES
+    if not isinstance(raw, dict):
+        return ctx.expr(raw, where)
+    unknown = set(raw) - {"start", "delta", "duration", "profile"}
+    if unknown or not {"start", "delta", "duration"} <= set(raw):
+        raise ExerciseError(f"{where}: expected {{start, delta, duration, profile}} (got {sorted(raw)})")
+    profile = _PROFILES.get(raw.get("profile", "cubic"))
+    if profile is None:
+        raise ExerciseError(f"{where}.profile: one of {', '.join(_PROFILES)}")
+    start, delta, T = (ctx.expr(raw[k], f"{where}.{k}") for k in ("start", "delta", "duration"))
+    return start + delta * profile(t / T)
 
 
 # ====================================================================== regulation

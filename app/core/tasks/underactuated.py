@@ -195,6 +195,15 @@ class Model:
             out[symbol(name)] = self.ctx.expr(value, f"{where}.{name}")
         return out
 
+    def mapping_of_parameters(self, spec, where: str) -> Dict[sp.Symbol, sp.Expr]:
+        """{robot parameter: expression} (e.g. ``{g0: 0}``) as a substitution."""
+        if not spec:
+            return {}
+        if not isinstance(spec, dict) or not set(map(str, spec)) <= set(self.robot.parameters):
+            raise ExerciseError(f"{where}: expected a mapping robot parameter -> value "
+                                f"(parameters: {', '.join(self.robot.parameters)})")
+        return {symbol(str(k)): self.ctx.expr(v, f"{where}.{k}") for k, v in spec.items()}
+
     def selection(self, actuated: Sequence[bool]) -> sp.Matrix:
         cols = [i for i, a in enumerate(actuated) if a]
         S = sp.zeros(len(actuated), len(cols))
