@@ -46,7 +46,7 @@ Task kinds (options -> answers):
   ``alpha_at`` (a maximizing configuration), ``<solve_for>_max``.
 - ``evaluate``: numbers at a state, parameters from ``given``. Options: ``at`` (coordinate ->
   value), ``velocity`` (coordinate -> value), ``acceleration`` (coordinate -> value). Answers:
-  ``M_at``, ``g_at``, ``c_at``, ``tau_at`` (M q'' + c + g + k + friction, when ``acceleration``
+  ``M_at``, ``M_inv_at``, ``g_at``, ``c_at``, ``tau_at`` (M q'' + c + g + k + friction, when ``acceleration``
   is given), ``T_at`` (kinetic energy).
 - ``kinetic_energy_decay``: the torque tau = -(gamma/2) M(q) q' that gives T' = q'^T tau = -gamma T
   without potential forces. Options: ``gamma`` (a number or a symbol, default ``gamma_``), ``at``,
@@ -951,6 +951,7 @@ def evaluate_task(ctx, spec):
                rf"\quad c = {a.L(sp.Matrix(np.round(c, 6)))}", "With the exercise's numbers.",
                bodies=[b.name for b in a.robot.bodies])
     a.answer("M_at", M)
+    a.answer("M_inv_at", np.linalg.inv(M))
     a.answer("g_at", g.reshape(-1))
     a.answer("c_at", c.reshape(-1))
     dqv = np.array([values[s] for s in a.dq], dtype=float)

@@ -25,7 +25,12 @@ weighted-pseudoinverse identities. Values follow the conventions of ``kinematic`
   (default true). Answers ``<name>``, ``<name>_minors``, ``<name>_gradient_b``, ``<name>_grad``.
 ``sns``: ``jacobian``, ``task``, ``bounds``, ``level`` (velocity | acceleration), ``drift``
   (J' q' at acceleration level, subtracted from the task) or ``joint_velocity`` (q', from which
-  J' q' is computed), ``minimum_norm`` (bool).
+  J' q' is computed), ``minimum_norm`` (bool). Instead of ``bounds``, ``limits``: {``position``
+  ({lower, upper} or ``robot`` for the robot file's limits), ``velocity`` (V), ``acceleration``
+  (A, acceleration level), ``sampling_time`` (T)} give the bounds over the next interval T:
+  velocity level max((q_min - q)/T, -V) <= q' <= min((q_max - q)/T, V); acceleration level
+  max(2 (q_min - q - q' T)/T^2, (-V - q')/T, -A) <= q'' <= min(2 (q_max - q - q' T)/T^2, (V - q')/T, A)
+  (answers ``<name>_lower``, ``<name>_upper``).
   Answers ``<name>``, ``<name>_scale``, ``<name>_norm``, ``<name>_iterations`` and per iteration k
   ``<name>_candidate_<k>``, ``<name>_task_<k>``, ``<name>_pinv_<k>`` (pseudoinverse of the
   columns of the free joints).
@@ -237,7 +242,10 @@ def sns_task(ctx, spec):
                  else d.drift(spec.get("jacobian", "J"), spec["joint_velocity"]))
         target = target - drift
         ctx.step("Task without the drift term", rf"\ddot p - \dot J \dot q = {vec(target)}", "At acceleration level the task is J q'' = p'' - J' q'.")
-    lo, hi = d.bounds(spec.get("bounds") or {}, n)
+    if spec.get("limits") is not None:
+        lo, hi = _bounds_from_limits(ctx, d, spec, level, n)
+    else:
+        lo, hi = d.bounds(spec.get("bounds") or {}, n)
     out = red.sns(J, target, lo, hi, minimum_norm=bool(spec.get("minimum_norm", False)),
                   threshold=float(spec.get("threshold", red.DEFAULT_THRESHOLD)), symbol=sym, task_symbol=tsym)
     if m == (2 if d.robot.is_planar else 3):     # a Cartesian task: its arrows at the end effector
@@ -254,6 +262,58 @@ def sns_task(ctx, spec):
         ctx.answer(f"{name}_task_{k}", it.target)
         cols = [i - 1 for i in it.active]
         ctx.answer(f"{name}_pinv_{k}", red.pinv(J[:, cols]) if cols else np.zeros((0, m)))
+
+
+def _bounds_from_limits(ctx, d, spec, level: str, n: int):
+    """Bounds on q' (velocity level) or q'' (acceleration level) over the next sampling interval
+    from joint range, velocity and acceleration limits (``limits``)."""
+    lim = spec["limits"]
+    if not isinstance(lim, dict) or "sampling_time" not in lim:
+        raise d._fail("sns.limits: expected {position, velocity, acceleration (acceleration level), sampling_time}")
+    T = d.number(lim["sampling_time"], "sns.limits.sampling_time")
+    if T <= 0:
+        raise d._fail("sns.limits.sampling_time: must be positive")
+    ref = spec.get("jacobian", "J")
+    obj = d.store.get(ref) if isinstance(ref, str) else None
+    q = d.configuration(spec.get("q")) if "q" in spec or obj is None or obj["q"] is None else obj["q"]
+    pos = lim.get("position", "robot")
+    if pos == "robot":
+        rng = [d.robot.limits.get(c) for c in d.robot.coordinates]
+        if any(r is None or r.position is None for r in rng):
+            raise d._fail("sns.limits.position: the robot file has no position limits for every joint; give {lower, upper}")
+        q_min, q_max = np.array([r.position[0] for r in rng]), np.array([r.position[1] for r in rng])
+    else:
+        q_min, q_max = d.bounds(pos, n, "sns.limits.position")
+    v_max = d.array(lim["velocity"], "sns.limits.velocity") * np.ones(n)
+    sym = r"\dot q" if level == "velocity" else r"\ddot q"
+    if level == "velocity":
+        lo, hi = red.velocity_bounds(q, q_min, q_max, v_max, T)
+        cands = (rf"\frac{{q_{{min}} - q}}{{T}},\ -V", rf"\frac{{q_{{max}} - q}}{{T}},\ V")
+    else:
+        if "acceleration" not in lim:
+            raise d._fail("sns.limits.acceleration: needed at acceleration level")
+        dq = d.array(spec.get("joint_velocity", [0.0] * n), "sns.joint_velocity").reshape(-1)
+        a_max = d.array(lim["acceleration"], "sns.limits.acceleration") * np.ones(n)
+        lo, hi = red.acceleration_bounds(q, dq, q_min, q_max, v_max, a_max, T)
+        cands = (rf"\frac{{2(q_{{min}} - q - \dot q T)}}{{T^2}},\ \frac{{-V - \dot q}}{{T}},\ -A",
+                 rf"\frac{{2(q_{{max}} - q - \dot q T)}}{{T^2}},\ \frac{{V - \dot q}}{{T}},\ A")
+    ctx.step("Bounds from the joint limits",
+             rf"{sym}_{{min}} = \max\left({cands[0]}\right) = {vec(lo)},\quad {sym}_{{max}} = \min\left({cands[1]}\right) = {vec(hi)}",
+             f"Over the next sampling interval T = {num(T)} s the joints must stay within their range, speed"
+             + (" and acceleration" if level == "acceleration" else "") + " limits.",
+             joint_values=[{"label": "bounds", "values": [0.0] * n, "lower": lo.tolist(), "upper": hi.tolist()}])
+    name = spec.get("name", "dq_sns")
+    ctx.answer(f"{name}_lower", lo)
+    ctx.answer(f"{name}_upper", hi)
+    bad = [i + 1 for i in range(n) if lo[i] > hi[i] + red.FEASIBILITY_TOLERANCE]
+    if bad:
+        raise d._fail(f"sns.limits: the limits cannot all be respected at joint(s) {bad} (the joint cannot stop "
+                      "before its range limit within its acceleration limit): lower bound above the upper one")
+    stop = [i + 1 for i in range(n) if lo[i] > red.FEASIBILITY_TOLERANCE or hi[i] < -red.FEASIBILITY_TOLERANCE]
+    if stop:
+        raise d._fail(f"sns.limits: joint(s) {stop} must accelerate or brake whatever the task (zero is outside "
+                      "their bounds); SNS needs bounds that contain zero")
+    return lo, hi
 
 
 @task("weighted_pinv_identity")

@@ -1,0 +1,101 @@
+"""Redundancy at velocity, acceleration and torque level (app/core/dynamic_redundancy.py and the
+dynamic_redundancy task) and SNS with bounds from joint limits, on random instances against
+independent computations."""
+import numpy as np
+import pytest
+import sympy as sp
+
+from app.core import dynamic_redundancy as dr
+from app.core.exercise import ExerciseError, parse_exercise, solve
+from app.core.numeric import NumericModel
+from app.core.robot import load_robot
+
+
+def _random_spd(rng, n):
+    A = rng.normal(size=(n, n))
+    return A @ A.T + n * np.eye(n)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_closed_forms_equal_the_kkt_minimizers(seed):
+    rng = np.random.default_rng(seed)
+    n, m = 4, 2
+    J, r = rng.normal(size=(m, n)), rng.normal(size=m)
+    M, nvec, W = _random_spd(rng, n), rng.normal(size=n), _random_spd(rng, n)
+    x0 = rng.normal(size=n)
+    acc = dr.resolve_torque(J, r, M, nvec, "acceleration", W, x0)
+    assert np.allclose(acc.ddq, dr.kkt_minimizer(J, r, W, -W @ x0), atol=1e-9), f"seed {seed}"
+    tor = dr.resolve_torque(J, r, M, nvec, "torque", W, x0)
+    best = M @ dr.kkt_minimizer(J, r, M.T @ W @ M, M.T @ W @ (nvec - x0)) + nvec
+    assert np.allclose(tor.tau, best, atol=1e-8), f"seed {seed}"
+    assert np.allclose(J @ tor.ddq, r, atol=1e-9) and np.allclose(M @ tor.ddq + nvec, tor.tau, atol=1e-9), f"seed {seed}"
+
+
+def test_symbolic_and_numeric_forms_agree():
+    rng = np.random.default_rng(7)
+    J, r, M, nvec = rng.normal(size=(1, 2)), rng.normal(size=1), _random_spd(rng, 2), rng.normal(size=2)
+    sym = dr.resolve_torque(sp.Matrix(J), sp.Matrix(r), sp.Matrix(M), sp.Matrix(nvec), "torque", sp.diag(1, 3))
+    num = dr.resolve_torque(J, r, M, nvec, "torque", np.diag([1.0, 3.0]))
+    assert np.allclose(np.array(sym.tau.evalf(), dtype=float).ravel(), num.tau, atol=1e-10)
+
+
+def test_imposed_joints_give_the_joint_space_decomposition():
+    rng = np.random.default_rng(3)
+    J, r = rng.normal(size=(2, 3)), rng.normal(size=2)
+    sol = dr.minimum_weighted_norm(J, r, fixed={2: 0.7})
+    assert sol.x[2] == pytest.approx(0.7)
+    assert np.allclose(sol.x[:2], np.linalg.solve(J[:, :2], r - J[:, 2] * 0.7))
+
+
+def _exercise(tasks, given, robot="planar_3r"):
+    return parse_exercise({"id": "test", "robot": robot, "question": "?", "given": given, "tasks": tasks})
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_torque_realizes_the_task_acceleration_with_the_full_model(seed):
+    rng = np.random.default_rng(seed)
+    q, dq, ddp = rng.uniform(-1, 1, 3), rng.uniform(-1, 1, 3), rng.uniform(-2, 2, 2)
+    given = {"q1": float(q[0]), "q2": float(q[1]), "q3": float(q[2]), "dq_now": dq.tolist(), "ddp": ddp.tolist()}
+    tasks = [{"kind": "jacobian", "name": "J", "point": "ee", "components": ["x", "y"]},
+             {"kind": "dynamic_redundancy", "name": "tau", "jacobian": "J", "task": "ddp", "velocity": "dq_now",
+              "objective": "torque", "weights": "inertia"}]
+    ans = solve(_exercise(tasks, given)).answers
+    robot = load_robot("planar_3r")
+    ddq = NumericModel(robot).forward_dynamics(q, dq, ans["tau"])      # independent: M^-1 (tau - n)
+    h = 1e-6
+    p = lambda t: robot_point(robot, q + t * dq + 0.5 * t * t * ddq)
+    ddp_fd = (p(h) - 2 * p(0) + p(-h)) / h ** 2
+    assert np.allclose(ddp_fd, ddp, atol=1e-3), f"seed {seed}: {ddp_fd} vs {ddp}"
+    assert ans["tau_kkt_gap"] < 1e-8
+
+
+def robot_point(robot, q):
+    l = [robot.parameters[k].value for k in ("l1", "l2", "l3")]
+    a = np.cumsum(q)
+    return np.array([sum(l[i] * np.cos(a[i]) for i in range(3)), sum(l[i] * np.sin(a[i]) for i in range(3))])
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_sns_with_bounds_from_limits_keeps_the_next_state_within_every_limit(seed):
+    rng = np.random.default_rng(seed)
+    q_min, q_max, V, A, T = -2.0, 2.0, 1.5, 6.0, 0.05
+    q = rng.uniform(-1.9, 1.9, 3)
+    dq = rng.uniform(-1.0, 1.0, 3)
+    ddp = rng.uniform(-8, 8, 2)
+    given = {"q1": float(q[0]), "q2": float(q[1]), "q3": float(q[2]), "dq_now": dq.tolist(), "ddp": ddp.tolist()}
+    tasks = [{"kind": "jacobian", "name": "J", "point": "ee", "components": ["x", "y"]},
+             {"kind": "sns", "name": "ddq", "level": "acceleration", "jacobian": "J", "task": "ddp",
+              "joint_velocity": "dq_now", "minimum_norm": True,
+              "limits": {"position": {"lower": q_min, "upper": q_max}, "velocity": V, "acceleration": A, "sampling_time": T}}]
+    try:
+        ans = solve(_exercise(tasks, given)).answers
+    except ExerciseError as exc:          # a joint must brake whatever the task: refused with a message
+        assert "joint" in str(exc), f"seed {seed}: {exc}"
+        return
+    x = np.asarray(ans["ddq"], float)
+    tol = 1e-9
+    assert np.all(np.abs(x) <= A + tol), f"seed {seed}"
+    assert np.all(np.abs(dq + x * T) <= V + tol), f"seed {seed}"
+    q_next = q + dq * T + 0.5 * x * T ** 2
+    assert np.all((q_next >= q_min - tol) & (q_next <= q_max + tol)), f"seed {seed}"
+    assert np.allclose(ans["ddq_lower"], np.maximum.reduce([2 * (q_min - q - dq * T) / T ** 2, (-V - dq) / T, -A * np.ones(3)]))
