@@ -147,7 +147,7 @@ def resolve_torque(J, r, M, n, objective: str = "acceleration", W=None, preferre
     >>> M = np.diag([2.0, 1.0]); n = np.array([1.0, 0.0]); J = np.array([[1.0, 1.0]])
     >>> s = resolve_torque(J, np.array([1.0]), M, n, "torque")
     >>> np.round(s.tau, 4).tolist(), np.round(J @ s.ddq, 6).tolist()
-    ([0.8, 0.4], [1.0])
+    ([0.6, 1.2], [1.0])
     """
     symbolic = _is_symbolic(J, r, M, n, W, preferred)
     conv = (lambda X: sp.Matrix(X)) if symbolic else (lambda X: np.asarray(X, float))
