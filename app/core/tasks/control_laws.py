@@ -25,7 +25,8 @@ Task kinds (options -> answers):
   ``u``, ``update``, ``dq_r``, ``ddq_r``, ``Y_r``, ``a``, ``dimension``, ``V_dot`` (the Lyapunov
   derivative with Lambda = K_D^-1 K_P).
 - ``computed_torque``: ``form`` feedback_linearization (default: u = M (q''_d + K_D e' + K_P e) + n)
-  or passivity (u = M q''_d + C q'_d + g + k + F_v q'_d + K_P e + K_D e'). Answers: ``u``.
+  or passivity (u = M q''_d + C q'_d + g + k + F_v q'_d + K_P e + K_D e'); ``name`` (default u).
+  Answers: ``<name>``.
 - ``desired_torque``: nominal input along q_d(t). Options: ``trajectory`` (coordinate ->
   expression of t, or a rest-to-rest motion ``{start, delta, duration, profile: cubic|quintic}``),
   ``at`` (an instant t), ``substitute`` (parameter -> value applied to the model first, e.g.
@@ -354,7 +355,7 @@ def computed_torque_task(ctx, spec):
         raise ExerciseError(f"computed_torque.form: expected feedback_linearization or passivity, got {form!r}")
     u = u.applyfunc(sp.expand)
     ctx.step("Control law", rf"{latex} = {latex_law(m, u)}", text, joints=[b.name for b in m.robot.bodies])
-    ctx.answer("u", u)
+    ctx.answer(str(spec.get("name", "u")), u)
 
 
 # ====================================================================== nominal torque along a trajectory
