@@ -1,6 +1,6 @@
 """The real page in headless Chromium (Debian's /usr/bin/chromium through Playwright).
 
-One lab server and one browser serve the whole module; every test opens its own browser context
+One lab server and one browser serve the whole run (tests/conftest.py); every test opens its own browser context
 (an independent tab with its own session)."""
 import colorsys
 import time

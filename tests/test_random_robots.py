@@ -63,7 +63,7 @@ def random_robot(seed: int) -> dict:
 def test_random_robot_identities(seed):
     robot = parse_robot(random_robot(seed), f"random{seed}")
     dyn = derive(robot, use_cache=False)
-    check = cross_check(robot, states=20)
+    check = cross_check(robot, states=20, dynamics=dyn)
     assert check.ok, check.summary()
     assert dyn.M == dyn.M.T
     par = dyn.parametrization

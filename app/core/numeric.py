@@ -310,9 +310,10 @@ def random_state(robot: RobotModel, rng: np.random.Generator) -> Tuple[np.ndarra
 
 
 def cross_check(robot: RobotModel, params: Optional[Mapping[str, float]] = None, states: int = 50,
-                seed: int = 0, tolerance: float = 1e-9) -> CrossCheck:
-    """Compare symbolic M, C q', g with pinocchio at random states (relative to the largest entry)."""
-    num = NumericModel(robot, params)
+                seed: int = 0, tolerance: float = 1e-9, dynamics: Optional[Dynamics] = None) -> CrossCheck:
+    """Compare symbolic M, C q', g with pinocchio at random states (relative to the largest entry).
+    ``dynamics``: the robot's model when the caller has derived it already (else derived here)."""
+    num = NumericModel(robot, params, dynamics)
     twin = PinocchioTwin(robot, num.values)
     rng = np.random.default_rng(seed)
     worst = {"M": 0.0, "Cdq": 0.0, "g": 0.0}
