@@ -6,13 +6,17 @@ kinetic energy from one Newton-Euler call.
 symbols q, q'), ``input`` (list u, one per coordinate), ``torque_bounds`` (list T_j with
 |u_j| <= T_j: the fastest decrease of E = T + U), ``newton_euler`` (true: y = NE_0(q, 0, q'/2),
 the inverse dynamics without gravity and velocity, and T = q'^T y), ``substitute`` (parameter ->
-value, e.g. zero friction), ``suffix``. From M q'' + c + g + k + f = u and the skew-symmetry of
+value, e.g. zero friction), ``hamiltonian`` (true: H(q, p) and Hamilton's equations with p = M q'), ``suffix``.
+From M q'' + c + g + k + f = u and the skew-symmetry of
 M' - 2C: T' = q'^T (u - g - k - f), U' = q'^T (g + k), E' = q'^T (u - f), L' = T' - U'.
 Answers: ``E_dot``, ``T_dot``, ``U_dot``, ``L_dot`` (with ``input``); with ``torque_bounds``:
 when q' != 0, ``tau_fastest`` (-T_j sign q'_j) and ``E_dot_fastest`` (-sum T_j |q'_j|); at rest,
 where E' = 0 for any input, ``tau_fastest`` = (g + k)/2 minimizing E'' = u^T M^-1 u -
 (g + k)^T M^-1 u, ``E_ddot_fastest`` (-1/4 g^T M^-1 g), ``T_ddot`` (1/4 g^T M^-1 g),
-``U_ddot`` (-1/2 g^T M^-1 g); with ``newton_euler``: ``NE_y`` (M q' / 2) and ``T_newton_euler``.
+``U_ddot`` (-1/2 g^T M^-1 g); with ``newton_euler``: ``NE_y`` (M q' / 2) and ``T_newton_euler``; with ``hamiltonian``: ``H``,
+``dH_dp`` (M^-1 p), ``dH_dq`` (1/2 col(p^T dM^-1/dq_i p) + g), ``dMinv_dq`` (one matrix per
+coordinate, = -M^-1 dM/dq_i M^-1), ``hamilton_equations`` (q' and p' = -dH/dq + u - f), and
+``hamilton_consistent`` (p' from Hamilton's equations equals d/dt (M q') along the Lagrangian model).
 
 >>> from app.core.exercise import parse_exercise, solve
 >>> ex = parse_exercise({"id": "x", "robot": "cartesian_pp_payload", "question": "?", "tasks": [
@@ -94,6 +98,8 @@ def energy_task(ctx, spec):
             ctx.answer("E_ddot_fastest" + sfx, -gMg / 4)
             ctx.answer("T_ddot" + sfx, gMg / 4)
             ctx.answer("U_ddot" + sfx, -gMg / 2)
+    if spec.get("hamiltonian"):
+        _hamiltonian(ctx, m, fixed, sfx)
     if spec.get("newton_euler"):
         # NE_0(q, 0, a): the inverse dynamics with zero velocity and without gravity, a = q'/2
         ne = (m.M * m.ddq + m.n - m.dyn.g - m.dyn.spring).subs(fixed)
@@ -106,3 +112,53 @@ def energy_task(ctx, spec):
                  bodies=bodies)
         ctx.answer("NE_y" + sfx, y)
         ctx.answer("T_newton_euler" + sfx, T_ne)
+
+
+def _hamiltonian(ctx, m: Model, fixed, sfx: str) -> None:
+    """H = 1/2 p^T M^-1 p + U with p = M q', its gradients, and Hamilton's equations checked against
+    the Lagrangian model (p' = M q'' + M' q' with q'' = M^-1 (u - n)) at random points (seed 0)."""
+    import numpy as np
+    n = len(m.coords)
+    p = sp.Matrix([symbol(f"p{i + 1}") for i in range(n)])
+    u = sp.Matrix([symbol(f"u{i + 1}") for i in range(n)])
+    M = m.M.subs(fixed)
+    Minv = M.inv().applyfunc(sp.cancel)
+    U = sum(m.dyn.potential.values(), sp.Integer(0)).subs(fixed)
+    g = (m.dyn.g + m.dyn.spring).subs(fixed)
+    H = (p.T * Minv * p)[0] / 2 + U
+    dMinv = [Minv.diff(qk).applyfunc(sp.factor) for qk in m.q]
+    dH_dp = (Minv * p).applyfunc(sp.factor)
+    dH_dq = (sp.Matrix([(p.T * dMinv[i] * p)[0] / 2 for i in range(n)]) + g).applyfunc(sp.factor)
+    f = m.dyn.friction.subs(fixed).subs(dict(zip(m.dq, dH_dp)), simultaneous=True)
+    p_dot = -dH_dq + u - f
+    # the same p' from the Lagrangian model, at random points: p = M q', q'' = M^-1 (u - n)
+    rng = np.random.default_rng(0)
+    syms = sorted((M.free_symbols | g.free_symbols | p_dot.free_symbols | m.n.subs(fixed).free_symbols | set(p) | set(u))
+                  - set(m.dq), key=lambda x: x.name)
+    gaps = []
+    for _ in range(3):
+        vals = {x: float(rng.uniform(0.3, 1.7)) for x in syms}
+        Mv = np.array(M.subs(vals), dtype=float)
+        dqv = np.linalg.solve(Mv, np.array(p.subs(vals), dtype=float).reshape(-1))
+        st = {**vals, **dict(zip(m.dq, dqv))}
+        ddq = np.linalg.solve(Mv, np.array((u - m.n.subs(fixed)).subs(st), dtype=float).reshape(-1))
+        Mdot = sum((np.array(M.diff(qk).subs(vals), dtype=float) * dqv[k] for k, qk in enumerate(m.q)), np.zeros((n, n)))
+        gaps.append(np.max(np.abs(Mv @ ddq + Mdot @ dqv - np.array(p_dot.subs(vals), dtype=float).reshape(-1))))
+        gaps.append(max(np.max(np.abs(np.array((dMinv[i] + Minv * M.diff(m.q[i]) * Minv).subs(vals), dtype=float)))
+                        for i in range(n)))
+    consistent = max(gaps) < 1e-9
+    L = m.L
+    ctx.step("Hamiltonian", rf"p = M(q)\dot q,\quad H(q, p) = \tfrac12 p^T M^{{-1}}(q) p + U(q) = {L(H)}",
+             "The total energy written with the generalized momentum.")
+    ctx.step("Its gradients", rf"\nabla_p H = M^{{-1}} p = {L(dH_dp)},\quad \nabla_q H = \tfrac12\,\mathrm{{col}}"
+             rf"\{{p^T \tfrac{{\partial M^{{-1}}}}{{\partial q_i}} p\}} + g = {L(dH_dq)}",
+             "With dM^-1/dq_i = -M^-1 (dM/dq_i) M^-1.")
+    ctx.step("Hamilton's equations", rf"\dot q = \nabla_p H,\quad \dot p = -\nabla_q H + u = {L(p_dot)}",
+             "They agree with d/dt (M q') along the Lagrangian model (checked at random points)." if consistent
+             else "They do not agree with the Lagrangian model at random points.")
+    ctx.answer("H" + sfx, H)
+    ctx.answer("dH_dp" + sfx, dH_dp)
+    ctx.answer("dH_dq" + sfx, dH_dq)
+    ctx.answer("dMinv_dq" + sfx, dMinv)
+    ctx.answer("hamilton_equations" + sfx, sp.Matrix.vstack(dH_dp, p_dot))
+    ctx.answer("hamilton_consistent" + sfx, bool(consistent))
