@@ -4,7 +4,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from app.core.compare import same
+from app.core.compare import parallel, same
 from app.core.exercise import expected_path, list_exercises, solve
 
 EXERCISES = list_exercises()
@@ -25,6 +25,11 @@ def test_exercise_answers(exercise):
     for name, spec in data["answers"].items():
         assert name in solution.answers, f"{exercise.id}: the engine gave no answer '{name}'"
         tol = spec.get("tol", 1e-9)
+        if spec.get("up_to_scale"):     # a direction (null-space vector): any non-zero multiple
+            assert parallel(spec["value"], solution.answers[name], definitions=defs), (
+                f"{exercise.id}: {name} ({spec.get('source', '')}): not parallel to {spec['value']}, "
+                f"engine {solution.answers[name]}")
+            continue
         assert same(spec["value"], solution.answers[name], tol=tol, definitions=defs), (
             f"{exercise.id}: {name} ({spec.get('source', '')}): expected {spec['value']}, "
             f"engine {solution.answers[name]}")

@@ -98,3 +98,21 @@ def same(expected, computed, tol: float = 1e-9, definitions=None) -> bool:
         ev, cv = complex(e), complex(c)
         return abs(ev - cv) <= tol * max(1.0, abs(ev))
     return _scalar_same(e, c)
+
+
+def parallel(expected, computed, definitions=None) -> bool:
+    """True when two vectors are non-zero multiples of each other (a null-space direction, which
+    the print and the engine may scale differently).
+
+    >>> parallel(["u", "v", "lam"], ["2*u", "2*v", "2*lam"]), parallel([1, 0], [0, 1])
+    (True, False)
+    """
+    e = as_sympy(expected, definitions)
+    c = as_sympy(computed.tolist() if isinstance(computed, np.ndarray) else computed)
+    if not (isinstance(e, sp.MatrixBase) and isinstance(c, sp.MatrixBase)) or len(e) != len(c):
+        return False
+    e, c = list(e), list(c)
+    if all(same(0, x) for x in c) or all(same(0, x) for x in e):
+        return False
+    return all(same(0, sp.expand(e[i] * c[j] - e[j] * c[i])) for i in range(len(e)) for j in range(i + 1, len(e)))
+
