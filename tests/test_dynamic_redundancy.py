@@ -99,3 +99,34 @@ def test_sns_with_bounds_from_limits_keeps_the_next_state_within_every_limit(see
     q_next = q + dq * T + 0.5 * x * T ** 2
     assert np.all((q_next >= q_min - tol) & (q_next <= q_max + tol)), f"seed {seed}"
     assert np.allclose(ans["ddq_lower"], np.maximum.reduce([2 * (q_min - q - dq * T) / T ** 2, (-V - dq) / T, -A * np.ones(3)]))
+
+
+# ---------------------------------------------------------------------- Lyapunov analysis (tasks/stability.py)
+@pytest.mark.parametrize("seed", range(3))
+def test_lyapunov_derivative_equals_the_rate_of_V_along_the_true_dynamics(seed):
+    """V and V' of the lyapunov task (PD + gravity compensation on the planar 2R) against dV/dt
+    computed by finite differences along the numeric forward dynamics (pinocchio-checked model)."""
+    rng = np.random.default_rng(seed)
+    gains = {"kp1": 30.0, "kp2": 20.0, "kd1": 6.0, "kd2": 4.0, "q1_d": 0.4, "q2_d": -0.3}
+    tasks = [{"kind": "lyapunov", "law": {"gravity": True, "pd": {}}}]
+    ans = solve(_exercise(tasks, {}, robot="planar_2r")).answers
+    robot = load_robot("planar_2r")
+    values = {sp.Symbol(k, real=True): v for k, v in {**robot.parameter_values(), **gains}.items()}
+    q, dq = rng.uniform(-1, 1, 2), rng.uniform(-1, 1, 2)
+    num = NumericModel(robot)
+    Kp, Kd, qd = np.diag([30.0, 20.0]), np.diag([6.0, 4.0]), np.array([0.4, -0.3])
+    tau = num.g(q) + Kp @ (qd - q) - Kd @ dq
+    ddq = num.forward_dynamics(q, dq, tau)
+    state = lambda x, v: {**values, **{s: float(a) for s, a in zip(robot.q, x)}, **{s: float(a) for s, a in zip(robot.dq, v)}}
+    V = lambda x, v: float(sp.sympify(ans["V"]).xreplace(state(x, v)))
+    h = 1e-6
+    rate = (V(q + h * dq, dq + h * ddq) - V(q - h * dq, dq - h * ddq)) / (2 * h)
+    assert rate == pytest.approx(float(ans["V_dot"].xreplace(state(q, dq))), abs=1e-5), f"seed {seed}"
+    assert rate == pytest.approx(-dq @ Kd @ dq, abs=1e-5), f"seed {seed}"
+    assert ans["damps_every_velocity"] is True
+    assert same_rows(ans["equilibria"], [["q1_d", "q2_d"]])
+
+
+def same_rows(matrix, rows):
+    from app.core.compare import same
+    return same(rows, matrix)

@@ -434,6 +434,14 @@ class _EquilibriumSolver:
                 return ("angle", prim[0], multiples)
         if not freqs and len(in_coeffs) == 1:
             return ("poly", next(iter(in_coeffs)))
+        if not freqs and in_coeffs:
+            # linear in some unknown with a coefficient free of unknowns (a chain of springs): solve for
+            # the last such unknown
+            expr = tp.to_expr()
+            for var in sorted(in_coeffs, key=self.unknowns.index, reverse=True):
+                coeff = sp.expand(expr).coeff(var, 1)
+                if sp.degree(expr, var) == 1 and coeff != 0 and not coeff.free_symbols & set(self.unknowns):
+                    return ("poly", var)
         return None
 
     def _factors(self, tp: TrigPoly) -> List[sp.Expr]:
@@ -461,7 +469,7 @@ def equilibria_task(ctx, spec):
                        bodies=bodies)
         elif kind == "poly":
             a.ctx.step(f"Row {row + 1}: solve for {variable}", rf"{a.L(equation)} = 0 \;\Rightarrow\; {a.L(variable)} \in \{{{vals}\}}",
-                       "With the angles fixed, this equation is a polynomial in one coordinate.",
+                       "Solved for one coordinate: the equation is a polynomial in it once the angles (and the coordinates solved later) are fixed.",
                        bodies=a.bodies_moved_by(variable))
         else:
             a.ctx.step(f"Row {row + 1}: split a product", rf"{a.L(equation)} = 0 \;\Rightarrow\; "
