@@ -130,3 +130,21 @@ def test_lyapunov_derivative_equals_the_rate_of_V_along_the_true_dynamics(seed):
 def same_rows(matrix, rows):
     from app.core.compare import same
     return same(rows, matrix)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_symbolic_norm_bound_is_above_the_norm_everywhere(seed):
+    """alpha of app.core.norm_bounds against the largest ||A(q)|| on a grid (random positive data)."""
+    from app.core.norm_bounds import norm_bound
+    rng = np.random.default_rng(seed)
+    q1, q2 = sp.symbols("q1 q2", real=True)
+    a, b, c, e = sp.symbols("a b c e", real=True)
+    A = sp.Matrix([[a * sp.cos(q1) + b * q2, c * sp.sin(q1)], [c * sp.sin(q1), e * sp.cos(q1 + q2) - b * q2]])
+    vals = {s: float(v) for s, v in zip((a, b, c, e), rng.uniform(0.2, 2.0, 4))}
+    lo, hi = 0.2, 1.0
+    _B, alpha = norm_bound(A, {q2: (lo, hi)}, [a, b, c, e])
+    alpha_v = float(alpha.xreplace(vals))
+    An = A.xreplace(vals)
+    worst = max(np.linalg.norm(np.array(An.xreplace({q1: x, q2: y}).evalf(), dtype=float), 2)
+                for x in np.linspace(-np.pi, np.pi, 25) for y in np.linspace(lo, hi, 5))
+    assert worst <= alpha_v + 1e-12, f"seed {seed}: max norm {worst} > alpha {alpha_v}"

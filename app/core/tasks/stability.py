@@ -484,3 +484,43 @@ def steady_motion_task(ctx, spec):
         lp.answer(f"spring_{s.name}", val)
     lp.ctx.step("Steady motion", (rf"\dot q_i = {lp.L(vs)},\quad " if mode == "common" else "") + r",\ ".join(defl),
                 "Each spring transmits the force needed by the bodies after it.")
+
+
+@task("gravity_gradient_symbolic")
+def gravity_gradient_symbolic_task(ctx, spec):
+    """A symbolic alpha >= ||dg/dq|| over the workspace (core: app.core.norm_bounds): A = dg/dq,
+    A^T A, its largest eigenvalue, and alpha from upper bounds of the entries of A^T A (|sin|, |cos|
+    <= 1, prismatic coordinates at the end of their ``range`` {coordinate: [lo, hi]} (expressions);
+    parameters positive). Answers ``A``, ``AtA``, ``lambda_max`` (2x2), ``AtA_bounds``, ``alpha``."""
+    from ..norm_bounds import BoundError, lambda_max_2x2, norm_bound
+    lp = _Loop(ctx, spec, "gravity_gradient_symbolic")
+    g = (lp.g + lp.k).applyfunc(sp.expand)
+    A = tidy_matrix(g.jacobian(sp.Matrix(lp.q)))
+    ranges = {}
+    for c, lim in (spec.get("range") or {}).items():
+        if c not in lp.coords or not isinstance(lim, list) or len(lim) != 2:
+            raise lp.fail(f"range.{c}: expected a coordinate and [lo, hi]")
+        ranges[symbol(c)] = (lp.expr(lim[0], f"range.{c}"), lp.expr(lim[1], f"range.{c}"))
+    positive = [p.symbol for p in lp.robot.parameters.values()
+                if p.kind in ("mass", "inertia", "stiffness", "gravity", "length", "com")]
+    try:
+        B, alpha = norm_bound(A, ranges, positive)
+    except BoundError as exc:
+        raise lp.fail(str(exc)) from None
+    S = (A.T * A).applyfunc(sp.factor)
+    lp.ctx.step("Gradient of gravity", rf"A(q) = \frac{{\partial g}}{{\partial q}} = {lp.L(A)}",
+                "Symmetric (the Hessian of the potential energy) and not definite in sign: its norm is sqrt(lambda_max(A^T A)).",
+                joints=[b.name for b in lp.robot.bodies])
+    lp.ctx.step("Its square", rf"A^T A = {lp.L(S)}", "Positive semidefinite: real nonnegative eigenvalues.")
+    lp.answer("A", A)
+    lp.answer("AtA", S)
+    if S.shape == (2, 2):
+        lam = lambda_max_2x2(S)
+        lp.ctx.step("Largest eigenvalue", rf"\lambda_{{max}}(A^T A) = \frac{{a_1 + a_3 + \sqrt{{(a_1 - a_3)^2 + 4 a_2^2}}}}{{2}}",
+                    "From det(lambda I - A^T A) = lambda^2 - (a1 + a3) lambda + a1 a3 - a2^2; it grows with a1, a3 and |a2|.")
+        lp.answer("lambda_max", lam)
+    lp.ctx.step("A bound over the workspace", rf"A^T A \le {lp.L(B)}\ \text{{entrywise}},\quad \alpha = {lp.L(alpha)}",
+                "|sin|, |cos| <= 1 and the coordinates at the end of their range bound each entry; alpha >= ||A(q)|| everywhere, "
+                "so K_P,min > alpha makes PD with the constant compensation g(q_d) globally asymptotically stable.")
+    lp.answer("AtA_bounds", B)
+    lp.answer("alpha", alpha)
