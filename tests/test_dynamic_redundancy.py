@@ -148,3 +148,36 @@ def test_symbolic_norm_bound_is_above_the_norm_everywhere(seed):
     worst = max(np.linalg.norm(np.array(An.xreplace({q1: x, q2: y}).evalf(), dtype=float), 2)
                 for x in np.linspace(-np.pi, np.pi, 25) for y in np.linspace(lo, hi, 5))
     assert worst <= alpha_v + 1e-12, f"seed {seed}: max norm {worst} > alpha {alpha_v}"
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_closed_form_minimum_over_q_against_a_grid(seed):
+    from app.core.definiteness import maximum, minimum
+    rng = np.random.default_rng(seed)
+    q = sp.Symbol("q", real=True)
+    c0, c1 = rng.uniform(-2, 2, 2)
+    c2 = -abs(rng.uniform(0, 2)) if seed % 2 else 0.0
+    expr = c0 + c1 * sp.cos(q) + c2 * sp.cos(q) ** 2
+    xs = np.linspace(-np.pi, np.pi, 2001)
+    grid = c0 + c1 * np.cos(xs) + c2 * np.cos(xs) ** 2
+    assert float(minimum(expr, [q])) == pytest.approx(min(grid), abs=1e-9), f"seed {seed}"
+    sq = sp.sympify(c0) + abs(c1) * (sp.sin(q) + sp.cos(q) - 1) ** 2     # vanishes at q = 0
+    assert float(minimum(sq, [q])) == pytest.approx(c0, abs=1e-12)
+    if c2 == 0:
+        assert float(maximum(expr, [q])) == pytest.approx(max(grid), abs=1e-9)
+
+
+def test_model_check_of_a_real_robot_is_positive_definite_and_agrees_with_eigenvalues():
+    """The planar 2R's own M written as a given matrix: the conditions hold for the file's numbers,
+    and the matrix is positive definite on a grid (independent numeric eigenvalues)."""
+    robot = load_robot("planar_2r")
+    from app.core.dynamics import derive
+    M = derive(robot).M
+    rows = [[str(e) for e in M.row(i)] for i in range(2)]
+    ans = solve(_exercise([{"kind": "model_check", "matrix": rows}], {}, robot="planar_2r")).answers
+    values = {sp.Symbol(k, real=True): v for k, v in robot.parameter_values().items()}
+    assert all(float(sp.sympify(c).xreplace(values)) > 0 for c in ans["M_conditions"])
+    q2 = robot.q[1]
+    for x in np.linspace(-np.pi, np.pi, 13):
+        Mn = np.array(M.xreplace(values).xreplace({q2: x}).evalf(), dtype=float)
+        assert np.linalg.eigvalsh(Mn).min() > 0
