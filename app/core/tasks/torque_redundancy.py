@@ -176,10 +176,10 @@ def _preferred(p: _Problem, spec, g):
     if raw is None:
         return None
     n = p.robot.n
-    if isinstance(raw, list):
+    if isinstance(raw, (list, str)):
         raw = {"expression": raw}
     if not isinstance(raw, dict):
-        raise p.fail("preferred: a list of expressions or {expression, gravity, damping}")
+        raise p.fail("preferred: a list of expressions, a given name or {expression, gravity, damping}")
     x0 = sp.zeros(n, 1)
     if "expression" in raw:
         x0 += p.vector(raw["expression"], n, "preferred.expression")
