@@ -181,3 +181,26 @@ def test_model_check_of_a_real_robot_is_positive_definite_and_agrees_with_eigenv
     for x in np.linspace(-np.pi, np.pi, 13):
         Mn = np.array(M.xreplace(values).xreplace({q2: x}).evalf(), dtype=float)
         assert np.linalg.eigvalsh(Mn).min() > 0
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_acceleration_polygon_vertices_bound_every_reachable_acceleration(seed):
+    """Random SPD M, bias and bounds: every sampled q'' with lo <= M q'' + n <= hi lies in the hull
+    of the vertices and has a norm not above the largest vertex norm."""
+    from scipy.spatial import ConvexHull
+    from app.core.torque_polygon import acceleration_polytope
+    rng = np.random.default_rng(seed)
+    M = _random_spd(rng, 2)
+    T = rng.uniform(1, 5, 2)
+    nvec = rng.uniform(-6, 6, 2)
+    P = acceleration_polytope(M, nvec, -T, T)
+    assert P.zero_feasible == bool(np.all(np.abs(nvec) <= T)), f"seed {seed}"
+    hull = ConvexHull(P.vertices)
+    lo, hi = P.vertices.min(axis=0) - 0.5, P.vertices.max(axis=0) + 0.5
+    X = rng.uniform(lo, hi, size=(4000, 2))
+    tau = X @ M.T + nvec
+    feasible = X[np.all((tau >= -T) & (tau <= T), axis=1)]
+    assert len(feasible) > 50, f"seed {seed}"
+    inside = feasible @ hull.equations[:, :2].T + hull.equations[:, 2] <= 1e-9
+    assert inside.all(), f"seed {seed}"
+    assert np.linalg.norm(feasible, axis=1).max() <= P.max_norm + 1e-9, f"seed {seed}"
