@@ -5,7 +5,7 @@ exactly when lo <= n <= hi (the state can be kept at constant velocity).
 
 >>> P = acceleration_polytope(np.eye(2), np.zeros(2), [-1, -2], [1, 2])
 >>> np.round(P.vertices, 6).tolist()
-[[1.0, 2.0], [-1.0, 2.0], [-1.0, -2.0], [1.0, -2.0]]
+[[-1.0, -2.0], [1.0, -2.0], [1.0, 2.0], [-1.0, 2.0]]
 >>> f"{P.max_norm:.4f}", P.zero_feasible
 ('2.2361', True)
 """
