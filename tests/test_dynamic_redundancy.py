@@ -204,3 +204,47 @@ def test_acceleration_polygon_vertices_bound_every_reachable_acceleration(seed):
     inside = feasible @ hull.equations[:, :2].T + hull.equations[:, 2] <= 1e-9
     assert inside.all(), f"seed {seed}"
     assert np.linalg.norm(feasible, axis=1).max() <= P.max_norm + 1e-9, f"seed {seed}"
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_cell_decomposition_free_cells_avoid_the_c_obstacles_and_astar_is_optimal(seed):
+    from app.core import roadmap as rm
+    rng = np.random.default_rng(seed)
+    obstacles = []
+    for _ in range(3):
+        x, y = rng.uniform(0, 7, 2)
+        w, h = rng.uniform(0.5, 2.5, 2)
+        obstacles.append([(x, y), (x + w, y), (x + w, y + h), (x, y + h)])
+    robot = [(0, 0), (1, 0), (1, 1), (0, 1)]
+    cobs = [rm.c_obstacle(o, robot, (0.5, 0.5)) for o in obstacles]
+    cells = rm.quadtree((0, 0, 8), cobs, 0.5)
+    pts = rng.uniform(0, 8, size=(3000, 2))
+    for c in cells:                                   # sampled interior points of free cells are free
+        inside = pts[(pts[:, 0] > c.x) & (pts[:, 0] < c.x + c.size) & (pts[:, 1] > c.y) & (pts[:, 1] < c.y + c.size)]
+        for p in inside:                              # strictly inside a (counterclockwise) C-obstacle?
+            hit = [poly for poly in cobs if all((b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]) > 1e-9
+                                               for a, b in zip(poly, poly[1:] + poly[:1]))]
+            assert not hit, f"seed {seed}: cell {c.number} holds a C-obstacle point {p}"
+    area = sum(c.size ** 2 for c in cells)
+    assert area <= 64 + 1e-9
+    edges = rm.adjacency(cells)
+    if len(cells) >= 2:
+        s, g = cells[0], cells[-1]
+        h = lambda k: float(np.hypot(*(np.subtract(cells[k - 1].center, g.center))))
+        L1, _p1, e1 = rm.shortest_path(edges, s.number, g.number)
+        L2, _p2, e2 = rm.shortest_path(edges, s.number, g.number, h)
+        assert L1 == pytest.approx(L2) or (np.isinf(L1) and np.isinf(L2)), f"seed {seed}"
+        assert e2 <= e1
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_voronoi_roadmap_points_are_equidistant_from_their_two_nearest_obstacles(seed):
+    from app.core import roadmap as rm
+    rng = np.random.default_rng(seed)
+    pts = [tuple(p) for p in rng.uniform([1, 1], [9, 5], size=(4, 2))]
+    R = rm.voronoi_roadmap((0, 0, 10, 6), pts, [], 0.05)
+    P = R.nodes
+    walls = [np.abs(P[:, 0]), np.abs(10 - P[:, 0]), np.abs(P[:, 1]), np.abs(6 - P[:, 1])]
+    D = np.sort(np.vstack([np.linalg.norm(P - np.asarray(p), axis=1) for p in pts] + walls), axis=0)
+    assert np.all(D[1] - D[0] <= 0.05 + 1e-12), f"seed {seed}"
+    assert np.allclose(R.clearance, (D[0] + D[1]) / 2), f"seed {seed}"
