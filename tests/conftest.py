@@ -1,6 +1,15 @@
-"""Fixtures shared by the browser tests: one lab server and one headless Chromium for the whole run,
-started by the first browser test and shared by every browser test module (every test opens its own
-browser context, i.e. an independent tab with its own session)."""
+"""Shared by the tests.
+
+Browser tests: one lab server and one headless Chromium for the whole run, started by the first
+browser test and shared by every browser test module (every test opens its own browser context, i.e.
+an independent tab with its own session).
+
+Random numbers: every generator a test makes, directly or through the code it calls
+(``numpy.random.default_rng``, ``random.Random``), must be given a seed, so that a run repeats
+exactly; a test that fails prints the seeds it used (section "random seeds" of its report)."""
+import random
+
+import numpy as np
 import pytest
 
 
@@ -17,3 +26,36 @@ def browser():
     from app.viewer import screenshot as shots
     with shots.Browser() as b:
         yield b
+
+
+@pytest.fixture(autouse=True)
+def _seeded_randomness(request, monkeypatch):
+    """Record the seed of every random generator made during the test; refuse one without a seed."""
+    seeds = request.node.random_seeds = []
+    default_rng = np.random.default_rng
+
+    def seeded_default_rng(seed=None, *args, **kwargs):
+        if seed is None:
+            raise AssertionError("numpy.random.default_rng() without a seed: give the test a fixed seed")
+        seeds.append(seed)
+        return default_rng(seed, *args, **kwargs)
+
+    class SeededRandom(random.Random):
+        def __init__(self, x=None):
+            if x is None:
+                raise AssertionError("random.Random() without a seed: give the test a fixed seed")
+            seeds.append(x)
+            super().__init__(x)
+
+    monkeypatch.setattr(np.random, "default_rng", seeded_default_rng)
+    monkeypatch.setattr(random, "Random", SeededRandom)
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    outcome = yield
+    report = outcome.get_result()
+    seeds = getattr(item, "random_seeds", None)
+    if report.failed and seeds:
+        unique = list(dict.fromkeys(repr(s) for s in seeds))
+        report.sections.append(("random seeds", "seeds of the random generators this test made: " + ", ".join(unique)))
