@@ -236,7 +236,9 @@ def test_speed_limit_bounds(arm):
 
 
 def test_optimizer_beats_the_thesis_under_every_limit_in_full_dynamics(arm):
-    res = ThrowOptimizer(arm).run(seed=0, budget=35.0)
+    # no time budget: the run ends within 0.2 % of the speed-limit bound or after its 16 local runs,
+    # the same on a fast or a slow (or busy) machine
+    res = ThrowOptimizer(arm).run(seed=0, budget=math.inf)
     assert res.distance_from_base >= 2.95
     assert res.distance_from_base <= res.bound.distance_from_base
     assert res.feasibility.feasible, res.feasibility.violations
