@@ -4,13 +4,18 @@ Browser tests: one lab server and one headless Chromium for the whole run, start
 browser test and shared by every browser test module (every test opens its own browser context, i.e.
 an independent tab with its own session).
 
-Random numbers: every generator a test makes, directly or through the code it calls
-(``numpy.random.default_rng``, ``random.Random``), must be given a seed, so that a run repeats
+Random numbers: every generator that a test or the lab's code makes during a test
+(``numpy.random.default_rng``, ``random.Random``) must be given a seed, so that a run repeats
 exactly; a test that fails prints the seeds it used (section "random seeds" of its report)."""
 import random
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+OURS = (str(ROOT / "app"), str(ROOT / "tests"))
 
 
 @pytest.fixture(scope="session")
@@ -34,17 +39,19 @@ def _seeded_randomness(request, monkeypatch):
     seeds = request.node.random_seeds = []
     default_rng = np.random.default_rng
 
-    def seeded_default_rng(seed=None, *args, **kwargs):
-        if seed is None:
-            raise AssertionError("numpy.random.default_rng() without a seed: give the test a fixed seed")
+    def check(seed, what):
+        caller = sys._getframe(2).f_code.co_filename       # a library's own generators are its business
+        if seed is None and caller.startswith(OURS):
+            raise AssertionError(f"{what} without a seed in {caller}: give it a fixed seed")
         seeds.append(seed)
+
+    def seeded_default_rng(seed=None, *args, **kwargs):
+        check(seed, "numpy.random.default_rng()")
         return default_rng(seed, *args, **kwargs)
 
     class SeededRandom(random.Random):
         def __init__(self, x=None):
-            if x is None:
-                raise AssertionError("random.Random() without a seed: give the test a fixed seed")
-            seeds.append(x)
+            check(x, "random.Random()")
             super().__init__(x)
 
     monkeypatch.setattr(np.random, "default_rng", seeded_default_rng)
@@ -56,6 +63,6 @@ def pytest_runtest_makereport(item, call):
     outcome = yield
     report = outcome.get_result()
     seeds = getattr(item, "random_seeds", None)
-    if report.failed and seeds:
-        unique = list(dict.fromkeys(repr(s) for s in seeds))
+    if report.failed and any(s is not None for s in seeds):
+        unique = list(dict.fromkeys(repr(s) for s in seeds if s is not None))
         report.sections.append(("random seeds", "seeds of the random generators this test made: " + ", ".join(unique)))
