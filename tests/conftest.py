@@ -66,3 +66,17 @@ def pytest_runtest_makereport(item, call):
     if report.failed and any(s is not None for s in seeds):
         unique = list(dict.fromkeys(repr(s) for s in seeds if s is not None))
         report.sections.append(("random seeds", "seeds of the random generators this test made: " + ", ".join(unique)))
+
+
+@pytest.fixture(scope="session")
+def solved():
+    """``solved(exercise)``: the engine's solution of a shipped exercise, solved once per test
+    session (the answer checks and the readability walk share it)."""
+    from app.core.exercise import solve
+    cache = {}
+
+    def get(exercise):
+        if exercise.id not in cache:
+            cache[exercise.id] = solve(exercise)
+        return cache[exercise.id]
+    return get

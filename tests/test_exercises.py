@@ -5,7 +5,7 @@ import pytest
 import yaml
 
 from app.core.compare import parallel, same
-from app.core.exercise import expected_path, list_exercises, solve
+from app.core.exercise import expected_path, list_exercises
 
 EXERCISES = list_exercises()
 
@@ -15,11 +15,11 @@ def test_there_are_exercises():
 
 
 @pytest.mark.parametrize("exercise", EXERCISES, ids=[e.id for e in EXERCISES])
-def test_exercise_answers(exercise):
+def test_exercise_answers(exercise, solved):
     path = expected_path(exercise)
     assert path.exists(), f"{exercise.id} has no expected answers file {path.name}"
     data = yaml.safe_load(path.read_text())
-    solution = solve(exercise)
+    solution = solved(exercise)
     defs = data.get("definitions") or {}
     assert data["answers"], "an expected-answers file must check something"
     for name, spec in data["answers"].items():

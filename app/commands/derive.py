@@ -56,6 +56,7 @@ def run(args) -> int:
     from app.core.dynamics import derive
     from app.core.errors import UserError
     from app.core.robot import load_robot
+    from app.core.mathtext import to_unicode
 
     robot = load_robot(args.robot)
     known = None
@@ -97,5 +98,5 @@ def run(args) -> int:
     if args.steps:
         print("\nsteps:", file=out)
         for k, st in enumerate(dyn.steps, 1):
-            print(f"{k:2d}. {st.title}: {st.text}", file=out)
+            print(f"{k:2d}. {to_unicode(st.title)}: {to_unicode(st.text)}", file=out)
     return 0

@@ -4,8 +4,12 @@ EXERCISE is a shipped exercise id (e.g. 2004-03-25#1) or a path to an exercise f
 name its robot file by a path relative to itself). Prints the steps and the final answers.
 
 JSON output (a stable contract): one object with keys "id", "title", "robot", "steps" (list of
-{"title", "latex", "text", "highlight"}), "answers" (name -> string that ``sympy.sympify`` parses
-back, a number, or nested lists of those) and "notes".
+{"title", "latex", "text", "highlight", "notes"}: "notes" lists the notes on the printed solution
+that concern that step), "answers" (name -> string that ``sympy.sympify`` parses back, a number, or
+nested lists of those; full precision) and "notes" (every note, in the file's order).
+
+Without ``--json`` the terminal gets every step: title, explanation and formulas in Unicode math
+(matrices laid out over several lines), numbers rounded to meaningful digits.
 """
 from __future__ import annotations
 
@@ -72,18 +76,75 @@ def run(args) -> int:
             fh.write(sol.markdown())
     if args.json:
         out = {"id": ex.id, "title": ex.title, "robot": sol.robot.name,
-               "steps": [s.as_dict() for s in sol.steps],
+               "steps": [{**s.as_dict(), "notes": sol.step_notes(k)} for k, s in enumerate(sol.steps)],
                "answers": {k: jsonable(v) for k, v in sol.answers.items()}, "notes": sol.notes}
         json.dump(out, sys.stdout)
         sys.stdout.write("\n")
         return 0
-    print(f"{ex.id}: {ex.title}\nrobot: {sol.robot.title}\n")
-    print(ex.question.strip(), "\n")
-    for k, st in enumerate(sol.steps, 1):
-        print(f"{k}. {st.title}" + (f" — {st.text}" if st.text else ""))
-    print("\nanswers:")
-    for name, value in sol.answers.items():
-        print(f"  {name} = {jsonable(value)}")
-    for n in sol.notes:
-        print(f"note: {n}")
+    print(terminal_text(sol))
     return 0
+
+
+def terminal_text(sol) -> str:
+    """The solution for a terminal: each step's title, explanation and formulas in Unicode math,
+    the notes on the printed solution under the step they concern, then the answers (rounded)."""
+    from app.core.mathtext import latex_to_unicode, to_unicode
+    from app.viewer.mathml import split_top_level
+    ex = sol.exercise
+    out = [f"{ex.id}: {ex.title}", f"robot: {sol.robot.title}", "", ex.question.strip(), ""]
+    for k, st in enumerate(sol.steps):
+        out.append(f"{k + 1}. {to_unicode(st.title)}")
+        if st.text:
+            out.append(_indent(to_unicode(st.text)))
+        for part in (split_top_level(st.latex) if st.latex else []):
+            out.append(_indent(latex_to_unicode(part, display=True)))
+        out += [_indent("⚠ Note on the printed solution: " + to_unicode(n)) for n in sol.step_notes(k)]
+        out.append("")
+    out.append("answers:")
+    for name, value in sol.answers.items():
+        out.append(_indent(f"{name} = " + answer_text(value, sol.robot.coordinates), "  ", hanging=len(name) + 3))
+    out += ["", *("note: " + to_unicode(n) for n in sol.general_notes())]
+    return "\n".join(out).rstrip() + "\n"
+
+
+def _indent(text: str, prefix: str = "   ", hanging: int = 0) -> str:
+    lines = text.splitlines() or [""]
+    return "\n".join(prefix + (" " * hanging if i else "") + line for i, line in enumerate(lines))
+
+
+def answer_text(value, coordinates=()) -> str:
+    """An answer for reading: numbers to 6 significant digits (no 6e-17 noise), symbolic answers
+    and matrices in Unicode math.
+
+    >>> answer_text(6.123e-17), answer_text(np.array([0.5, 1/3])), answer_text(True)
+    ('0', '⎛ 0.5      ⎞\\n⎝ 0.333333 ⎠', 'yes')
+    """
+    from app.core.mathtext import latex_to_unicode
+    from app.core.steps import to_latex
+    if isinstance(value, (bool, np.bool_)):
+        return "yes" if value else "no"
+    if isinstance(value, (float, np.floating)):
+        return _number(float(value))
+    if isinstance(value, (int, np.integer, str)) or value is None:
+        return str(value)
+    if isinstance(value, (list, tuple, np.ndarray)):
+        try:
+            arr = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            return str(jsonable(value))
+        if arr.ndim == 0:
+            return _number(float(arr))
+        rows = arr.reshape(-1, 1) if arr.ndim == 1 else arr.reshape(arr.shape[0], -1)
+        body = r"\\".join(" & ".join(_number(float(x)) for x in row) for row in rows)
+        return latex_to_unicode(r"\begin{pmatrix}" + body + r"\end{pmatrix}", display=True)
+    if isinstance(value, (sp.Basic, sp.MatrixBase)):
+        return latex_to_unicode(to_latex(value, list(coordinates)), display=True)
+    return str(jsonable(value))
+
+
+def _number(x: float) -> str:
+    if not np.isfinite(x):
+        return str(x)
+    if abs(x) < 1e-12:
+        return "0"
+    return f"{x:.6g}"

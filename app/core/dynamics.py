@@ -27,6 +27,7 @@ import numpy as np
 import sympy as sp
 
 from .kinematics import Kinematics
+from .mathtext import symbols_text
 from .robot import KNOWN_KINDS, RobotModel
 from .steps import Step, shorthand_is_clear, to_latex
 from .trig import TrigPoly
@@ -35,7 +36,7 @@ def _engine_version() -> str:
     """Hash of the engine's own source: any change to it invalidates the disk cache."""
     here = Path(__file__).resolve().parent
     h = hashlib.sha256()
-    for name in ("dynamics.py", "kinematics.py", "robot.py", "trig.py", "expressions.py", "steps.py"):
+    for name in ("dynamics.py", "kinematics.py", "robot.py", "trig.py", "expressions.py", "steps.py", "mathtext.py"):
         h.update((here / name).read_bytes())
     return h.hexdigest()[:16]
 
@@ -399,7 +400,7 @@ class _Deriver:
         self.step("Generalized coordinates",
                   r"q = " + self.L(sp.Matrix(self.q)) + r",\quad \dot q = " + self.L(dq),
                   "The configuration is described by these coordinates; the model follows from the "
-                  "Lagrangian L = T - U.")
+                  "Lagrangian $L = T - U$.")
         gvec = robot.gravity
         for idx, body in enumerate(robot.bodies):
             self.progress(0.05 + 0.45 * idx / max(1, len(robot.bodies)), f"energy of {body.name}")
@@ -438,14 +439,15 @@ class _Deriver:
             potential[body.name] = self.X(Ui)
             U_tp = U_tp + Ui
             label = body.name
-            text = (f"CoM of {label}: position, velocity, and angular velocity in its own frame; "
-                    f"then T = 1/2 m |v_c|^2 + 1/2 omega^T I omega.")
+            shown = label.replace("_", " ")
+            text = (f"Centre of mass of {shown}: position, velocity, and angular velocity in its own frame; "
+                    r"then $T = \frac{1}{2} m \|v_c\|^2 + \frac{1}{2} \omega^T I \omega$.")
             latex = (rf"p_{{c,{label}}} = {self.L(p)},\quad v_{{c,{label}}} = {self.L(v)},\quad "
                      rf"\omega_{{{label}}} = {self.L(w)}")
-            self.step(f"Kinematics of {label}", latex, "Position of the centre of mass (base frame), its "
+            self.step(f"Kinematics of {shown}", latex, "Position of the centre of mass (base frame), its "
                       "velocity as the time derivative, and the link's angular velocity in its own frame.",
                       bodies=[label])
-            self.step(f"Kinetic energy of {label}", rf"T_{{{label}}} = {self.L(kinetic[label])}", text,
+            self.step(f"Kinetic energy of {shown}", rf"T_{{{label}}} = {self.L(kinetic[label])}", text,
                       bodies=[label])
         # motors (rotor inertias of elastic joints)
         for cname, inertia in robot.motor_inertias.items():
@@ -459,7 +461,7 @@ class _Deriver:
         self.progress(0.5, "inertia matrix")
         M = self.MX(M_tp)
         self.step("Inertia matrix", rf"M(q) = {self.L(M)}",
-                  "Collect T = 1/2 q'^T M(q) q'; M is symmetric and positive definite.",
+                  r"Collect $T = \frac{1}{2} \dot q^T M(q) \dot q$; $M$ is symmetric and positive definite.",
                   bodies=[b.name for b in robot.bodies])
 
         # springs
@@ -482,7 +484,7 @@ class _Deriver:
         spring_vec = sp.Matrix([self.X(e) for e in k_tp])
         if any(e != 0 for e in robot.gravity):
             self.step("Potential energy", rf"U(q) = {self.L(self.X(U_tp))}",
-                      "Gravity: U_i = -m_i g^T p_ci for each link.", bodies=[b.name for b in robot.bodies])
+                      r"Gravity: $U_i = -m_i g^T p_{c,i}$ for each link.", bodies=[b.name for b in robot.bodies])
         self.step("Gravity vector", rf"g(q) = \left(\frac{{\partial U}}{{\partial q}}\right)^T = {self.L(g)}",
                   "Gradient of the gravitational potential energy.")
         if robot.springs:
@@ -503,18 +505,18 @@ class _Deriver:
                 for k in range(n):
                     if Ci_tp[j][k].terms:
                         C_tp[i][j] = C_tp[i][j] + Ci_tp[j][k].scale(dq[k])
-            self.step(f"Christoffel matrix C_{i + 1}",
+            self.step(f"Christoffel matrix $C_{{{i + 1}}}$",
                       rf"C_{{{i + 1}}}(q) = \frac{{1}}{{2}}\left(\frac{{\partial m_{{{i + 1}}}}}{{\partial q}} + "
                       rf"\left(\frac{{\partial m_{{{i + 1}}}}}{{\partial q}}\right)^T - \frac{{\partial M}}{{\partial q_{{{i + 1}}}}}\right) = {self.L(Ci)}",
-                      f"Christoffel symbols of row {i + 1}; c_{i + 1} = q'^T C_{i + 1} q'.",
+                      rf"Christoffel symbols of row {i + 1}; $c_{{{i + 1}}} = \dot q^T C_{{{i + 1}}} \dot q$.",
                       joints=[robot.bodies[min(i, len(robot.bodies) - 1)].name])
         C_tp = [[e.expand() for e in row] for row in C_tp]
         C = self.MX(C_tp)
         c_tp = [sum((C_tp[i][j].scale(dq[j]) for j in range(n)), TrigPoly()).expand() for i in range(n)]
         c = sp.Matrix([self.X(e) for e in c_tp])
-        self.step("Coriolis and centrifugal terms", rf"c(q,\dot q) = {self.L(c)}", "c_i = q'^T C_i q'.")
-        self.step("Factorization c = C(q, q') q'", rf"C(q,\dot q) = {self.L(C)}",
-                  "Built from the Christoffel symbols, so that M' - 2C is skew-symmetric.")
+        self.step("Coriolis and centrifugal terms", rf"c(q,\dot q) = {self.L(c)}", r"$c_i = \dot q^T C_i \dot q$.")
+        self.step(r"Factorization $c = C(q, \dot q)\, \dot q$", rf"C(q,\dot q) = {self.L(C)}",
+                  r"Built from the Christoffel symbols, so that $\dot M - 2C$ is skew-symmetric.")
 
         # friction
         fr = [sp.Integer(0)] * n
@@ -540,11 +542,11 @@ class _Deriver:
         y0 = rf",\quad y_0 = {self.L(param.known_terms)}" if has_y0 else ""
         self.step("Linear parametrization", rf"Y(q,\dot q,\ddot q)\,a{' + y_0' if has_y0 else ''} = \tau,\quad "
                   rf"Y = {self.L(param.Y)},\quad a = {self.L(sp.Matrix(param.a))}{y0}",
-                  f"A minimal set of {param.count} dynamic coefficients (known: {', '.join(param.known) or 'none'})"
-                  + ("; y0 collects the terms with no unknown parameter." if has_y0 else "."))
+                  f"A minimal set of {param.count} dynamic coefficients (known: {symbols_text(param.known)})"
+                  + ("; $y_0$ collects the terms with no unknown parameter." if has_y0 else "."))
         y0r = rf",\quad y_{{0r}} = {self.L(param.known_terms_ref)}" if has_y0 else ""
         self.step("Adaptive regressor", rf"Y(q,\dot q,\dot q_r,\ddot q_r) = {self.L(param.Y_ref)}{y0r}",
-                  "Y_r a = M q''_r + C(q, q') q'_r + g(q) (+ springs, friction): the Slotine-Li regressor.")
+                  r"$Y_r a = M \ddot q_r + C(q, \dot q) \dot q_r + g(q)$ (plus springs and friction): the Slotine-Li regressor.")
         self.progress(1.0, "done")
         return Dynamics(
             robot_name=robot.name, content_hash=robot.content_hash,

@@ -47,6 +47,8 @@ class Exercise:
     configuration: Dict[str, float] = field(default_factory=dict)
     notes: List[str] = field(default_factory=list)
     source: str = ""
+    #: per note, what it concerns: {"answer": name} or {"step": title} (None: the whole exercise)
+    note_targets: List[Optional[dict]] = field(default_factory=list)
 
     @property
     def robot_ref(self) -> str:
@@ -68,19 +70,41 @@ class Solution:
     answers: Dict[str, Any]
     notes: List[str]
     robot: RobotModel
+    #: per note, the index of the step it concerns (None: about the whole exercise, shown at the end)
+    note_steps: List[Optional[int]] = field(default_factory=list)
+    #: answer name -> index of the step that shows it
+    answer_steps: Dict[str, int] = field(default_factory=dict)
+
+    def answer_step(self, name: str) -> Optional[int]:
+        """Index of the step that shows the answer ``name`` (None when unknown)."""
+        k = self.answer_steps.get(name)
+        return None if k is None or k < 0 else k
+
+    def step_notes(self, k: int) -> List[str]:
+        """The notes on the printed solution that concern step ``k`` (0-based)."""
+        return [n for n, s in zip(self.notes, self.note_steps) if s == k]
+
+    def general_notes(self) -> List[str]:
+        """The notes attached to no step (shown after the last step)."""
+        steps = self.note_steps + [None] * (len(self.notes) - len(self.note_steps))
+        return [n for n, s in zip(self.notes, steps) if s is None]
 
     def markdown(self) -> str:
-        """The whole solution as Markdown with LaTeX ($$ ... $$)."""
+        """The whole solution as Markdown: formulas in $$ ... $$, inline math in $ ... $ (the text
+        convention of app/core/mathtext.py), numbers as the steps print them (rounded), each note
+        on the printed solution under the step it concerns."""
         lines = [f"# {self.exercise.id}: {self.exercise.title}", "", f"Robot: {self.robot.title}", "",
                  "## Question", "", self.exercise.question.strip(), "", "## Solution", ""]
-        for k, st in enumerate(self.steps, 1):
-            lines += [f"### {k}. {st.title}", ""]
+        for k, st in enumerate(self.steps):
+            lines += [f"### {k + 1}. {st.title}", ""]
             if st.text:
                 lines += [st.text, ""]
             if st.latex:
                 lines += ["$$", st.latex, "$$", ""]
-        if self.notes:
-            lines += ["## Notes on the printed solution", ""] + [f"- {n}" for n in self.notes] + [""]
+            lines += [f"> **Note on the printed solution:** {n}\n" for n in self.step_notes(k)]
+        general = self.general_notes()
+        if general:
+            lines += ["## Notes on the printed solution", ""] + [f"- {n}" for n in general] + [""]
         return "\n".join(lines)
 
 
@@ -100,6 +124,7 @@ class TaskContext:
         self.progress = progress or (lambda f, m: None)
         self._derived: Dict[tuple, Dynamics] = {}
         self.current = "task"                      # the task being solved, for messages
+        self.answer_steps: Dict[str, int] = {}      # answer -> index of the step that shows it
 
     def dynamics(self, known=None) -> Dynamics:
         key = tuple(sorted(known)) if known is not None else None
@@ -128,6 +153,7 @@ class TaskContext:
                                 f"'{name}' has the same name as the given entry '{name}': rename the given "
                                 f"entry (e.g. '{name}_max' or '{name}_given')")
         self.answers[name] = value
+        self.answer_steps[name] = len(self.steps) - 1
 
     def expr(self, text, where: str = "expression"):
         """Parse an expression of the exercise (robot symbols and coordinates) safely."""
@@ -186,14 +212,53 @@ def parse_exercise(data, source: str = "<exercise>") -> Exercise:
         if t["kind"] not in TASKS:
             raise ExerciseError(f"{source}: tasks[{i}].kind: unknown task kind '{t['kind']}' "
                                 f"(known: {', '.join(sorted(TASKS))})")
-    notes = data.get("notes") or []
-    if isinstance(notes, str):
-        notes = [notes]
+    notes, targets = _parse_notes(data.get("notes") or [], source)
     return Exercise(id=str(data["id"]), title=str(data.get("title", data["id"])), robot=str(data["robot"]),
                     question=str(data["question"]), tasks=tasks, exam=str(data.get("exam", "")),
                     number=str(data.get("number", "")), topics=list(data.get("topics") or []),
                     given=dict(data.get("given") or {}), configuration=dict(data.get("configuration") or {}),
-                    notes=[str(n) for n in notes], source=source)
+                    notes=notes, note_targets=targets, source=source)
+
+
+def _parse_notes(raw, source: str):
+    """Notes are strings, or mappings ``{note: text, answer: name}`` / ``{note: text, step: title}``
+    tying the note to the step that gives that answer / the first step whose title starts so."""
+    if isinstance(raw, str):
+        raw = [raw]
+    notes, targets = [], []
+    for i, item in enumerate(raw):
+        if isinstance(item, dict):
+            extra = set(item) - {"note", "answer", "step"}
+            if "note" not in item or extra or len(item) != 2:
+                raise ExerciseError(f"{source}: notes[{i}]: expected a text or a mapping with 'note' and one "
+                                    "of 'answer' (an answer name) or 'step' (the start of a step title)")
+            notes.append(str(item["note"]))
+            targets.append({k: str(v) for k, v in item.items() if k != "note"})
+        else:
+            notes.append(str(item))
+            targets.append(None)
+    return notes, targets
+
+
+def _note_steps(exercise: "Exercise", steps: List[Step], answer_steps: Mapping[str, int]) -> List[Optional[int]]:
+    """The step each note concerns (see ``_parse_notes``); a target that does not exist is an error."""
+    out: List[Optional[int]] = []
+    for i, target in enumerate(exercise.note_targets or [None] * len(exercise.notes)):
+        if target is None:
+            out.append(None)
+        elif "answer" in target:
+            if target["answer"] not in answer_steps:
+                raise ExerciseError(f"{exercise.source or exercise.id}: notes[{i}]: no task gives the answer "
+                                    f"'{target['answer']}' (answers: {', '.join(sorted(answer_steps))})")
+            out.append(max(answer_steps[target["answer"]], 0))
+        else:
+            title = target["step"].lower()
+            hits = [k for k, st in enumerate(steps) if st.title.lower().startswith(title)]
+            if not hits:
+                raise ExerciseError(f"{exercise.source or exercise.id}: notes[{i}]: no step title starts with "
+                                    f"'{target['step']}'")
+            out.append(hits[0])
+    return out
 
 
 def list_exercises() -> List[Exercise]:
@@ -244,6 +309,11 @@ def solve(exercise: Exercise, given: Optional[Mapping[str, Any]] = None,
     for i, spec in enumerate(exercise.tasks):
         ctx.progress(i / len(exercise.tasks), spec["kind"])
         ctx.current = f"tasks[{i}] ({spec['kind']})"
+        first, before = len(ctx.steps), set(ctx.answers)
         TASKS[spec["kind"]](ctx, {k: v for k, v in spec.items() if k != "kind"})
+        for name in set(ctx.answers) - before:      # an answer given before its task's first step
+            if ctx.answer_steps[name] < first and len(ctx.steps) > first:
+                ctx.answer_steps[name] = first
     ctx.progress(1.0, "done")
-    return Solution(exercise, ctx.steps, ctx.answers, ctx.notes, robot)
+    return Solution(exercise, ctx.steps, ctx.answers, ctx.notes, robot,
+                    _note_steps(exercise, ctx.steps, ctx.answer_steps), dict(ctx.answer_steps))

@@ -32,3 +32,19 @@ def mat(M, digits: int = 4) -> str:
 def vec(v, digits: int = 4) -> str:
     v = np.asarray(v, dtype=float).reshape(-1)
     return r"\begin{pmatrix} " + r" \\ ".join(num(x, digits) for x in v) + r" \end{pmatrix}"
+
+
+def sig(x: float, digits: int = 4) -> str:
+    """A number with ``digits`` significant digits; powers of ten as ``10^{k}``, never ``1e-09``.
+
+    >>> sig(1e-9), sig(0.0000123456), sig(2.6180339887)
+    ('10^{-9}', '1.235 \\\\cdot 10^{-5}', '2.618')
+    """
+    x = float(x)
+    if not math.isfinite(x) or x == 0:
+        return num(x)
+    text = f"{x:.{digits}g}"
+    if "e" not in text:
+        return text
+    mant, exp = text.split("e")
+    return f"10^{{{int(exp)}}}" if mant == "1" else rf"{mant} \cdot 10^{{{int(exp)}}}"

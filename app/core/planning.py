@@ -153,10 +153,10 @@ class TimingLaw:
             law = r"\sigma(\tau) = 3\tau^2 - 2\tau^3" if self.kind == "cubic" else r"\sigma(\tau) = 10\tau^3 - 15\tau^4 + 6\tau^5"
             return [Step(f"{self.kind.capitalize()} timing law",
                          law + rf",\ \tau = t/T,\quad \dot\sigma_{{max}} = {num(self.V)},\ \ddot\sigma_{{max}} = {num(self.A)}",
-                         f"Rest-to-rest over {num(self.delta)} {unit} in T = {num(self.T)} s.")]
+                         f"Rest-to-rest over {num(self.delta)} {unit} in $T = {num(self.T)}$ s.")]
         return [Step("Bang-coast-bang timing law" if self.kind == "trapezoidal" else "Bang-bang timing law",
                      rf"T = {num(self.T)},\ T_s = {num(self.Ts)},\ V = {num(self.V)},\ A = {num(self.A)}",
-                     f"Accelerate at A for Ts, cruise at V, decelerate; displacement {num(self.delta)} {unit} = V (T - Ts).",
+                     f"Accelerate at $A$ for $T_s$, cruise at $V$, decelerate; the displacement is {num(self.delta)} {unit} $= V (T - T_s)$.",
                      {"profile": {"kind": self.kind, "T": self.T, "Ts": self.Ts, "V": self.V, "A": self.A}})]
 
 
@@ -236,7 +236,7 @@ def minimum_time(make_law: Callable[[float], TimingLaw], torque: Callable[[np.nd
     k, joint = np.unravel_index(np.argmax(ratio), ratio.shape)
     tp = float(t[k] * T)
     steps = law.steps() + [Step("Minimum time", rf"T_{{min}} = {num(T)}\ \mathrm{{s}}",
-                                f"With T the inertial torques scale as 1/T^2; joint {joint + 1} reaches its bound at t = {num(tp)} s.",
+                                rf"With $T$ the inertial torques scale as $1/T^2$; joint {joint + 1} reaches its bound at $t = {num(tp)}$ s.",
                                 {"profile": {"kind": law.kind, "T": law.T, "Ts": law.Ts, "V": law.V, "A": law.A}})]
     return MinimumTime(T, law, float(ratio[k, joint]), tp, int(joint) + 1, steps)
 
@@ -281,9 +281,9 @@ def uniform_time_scaling(tau, gravity, bounds, lower_bounds=None, floor: float =
     k = max(per_joint)
     scaled = dyn / k ** 2 + g
     steps = [Step("Torque under time scaling", r"\tau_k(t') = \frac{\tau(t) - g(q(t))}{k^2} + g(q(t)),\quad t' = k t",
-                  "Inertial and Coriolis torques scale with 1/k^2, gravity does not."),
+                  r"Inertial and Coriolis torques scale with $1/k^2$, gravity does not."),
              Step("Scaling factor", ", ".join(rf"k_{j + 1} = {num(kj)}" for j, kj in enumerate(per_joint)) + rf",\quad k = {num(k)}",
-                  "Each joint needs k^2 >= |tau - g| / (bound - |g|) where its torque is largest; k is the largest.")]
+                  r"Each joint needs $k^2 \ge |\tau - g| / (\tau_{\max} - |g|)$ where its torque is largest; $k$ is the largest.")]
     return TimeScaling(k, per_joint, scaled, steps)
 
 

@@ -28,7 +28,7 @@ import numpy as np
 
 from .errors import UserError
 from .jacobians import DEFAULT_THRESHOLD
-from .latex import mat, num, vec
+from .latex import mat, num, sig, vec
 from .steps import Step
 
 FEASIBILITY_TOLERANCE = 1e-9
@@ -169,15 +169,15 @@ def resolve(J, v, weights=None, damping: Optional[float] = None, preferred=None,
         W = weighted_matrix(weights, n)[np.ix_(free, free)]
         inv = weighted_pinv(Jf, W, threshold)
         steps.append(Step("Weighted pseudoinverse", r"J_W^\# = W^{-1/2}\,(J W^{-1/2})^\# = " + mat(inv),
-                          "Minimizes the weighted norm q'^T W q' among the solutions (W^(-1/2) identity)."))
+                          r"Minimizes the weighted norm $\dot q^T W \dot q$ among the solutions (through $W^{-1/2}$)."))
     elif damping:
         inv = damped_pinv(Jf, damping)
         steps.append(Step("Damped least squares", rf"J_{{DLS}} = J^T (J J^T + \mu^2 I)^{{-1}} = " + mat(inv),
-                          f"mu = {num(damping)}: trades task accuracy for bounded joint velocities near singularities."))
+                          f"$\\mu = {num(damping)}$: trades task accuracy for bounded joint velocities near singularities."))
     else:
         inv = pinv(Jf, threshold)
         steps.append(Step("Pseudoinverse", r"J^\# = " + mat(inv),
-                          f"From the SVD, singular values below {threshold:g} (absolute) treated as zero."))
+                          f"From the SVD, singular values below ${sig(threshold)}$ (absolute) treated as zero."))
     dq_task = np.zeros(n)
     dq_task[free] = inv @ v_red
     dq_task += dq_fixed
@@ -195,7 +195,7 @@ def resolve(J, v, weights=None, damping: Optional[float] = None, preferred=None,
                       f"Norm {num(np.linalg.norm(dq))}.", {"joint_values": [{"label": "solution", "values": dq.tolist()}]}))
     err = v - J @ dq
     steps.append(Step("Task error", rf"e = {task_symbol} - J {symbol} = " + vec(err),
-                      "Zero when the task is in the range of J; otherwise the least-squares residual."))
+                      "Zero when the task is in the range of $J$; otherwise the least-squares residual."))
     res = Resolution(dq, dq_task, dq_null, inv, projector, err, steps)
     if lower is not None or upper is not None:
         lo = _vec(lower if lower is not None else -np.inf * np.ones(n), n, "lower bounds")
@@ -209,7 +209,7 @@ def resolve(J, v, weights=None, damping: Optional[float] = None, preferred=None,
             res.dq = k * dq_task + dq_null
             res.error = v - J @ res.dq
             res.steps.append(Step("Task scaling", rf"k^* = {num(k)},\quad {symbol}_s = k^* {symbol}_{{task}} + {symbol}_{{null}} = {vec(res.dq)}",
-                                  "The largest k <= 1 that brings every joint inside its bounds; the task is executed scaled.",
+                                  r"The largest $k \le 1$ that brings every joint inside its bounds; the task is executed scaled.",
                                   {"joint_values": [{"label": "scaled", "values": res.dq.tolist(), "lower": lo.tolist(), "upper": hi.tolist()}],
                                    "scale": k}))
     return res
@@ -271,9 +271,9 @@ def reduced_gradient(J, v, gradient, alpha: float = 1.0, maximize: bool = True) 
     dq[a_idx], dq[b_idx] = dq_a, dq_b
     names = ", ".join(rf"\det J_{{-{','.join(map(str, k))}}} = {num(d)}" for k, d in minors.items())
     steps = [
-        Step("Minors", names, f"J_a = columns {', '.join(str(j + 1) for j in a_idx)} (largest |det|)."),
+        Step("Minors", names, f"$J_a$ is made of columns {', '.join(str(j + 1) for j in a_idx)} (the largest $|\\det|$)."),
         Step("Reduced gradient", r"\nabla_{q_b} H' = \begin{pmatrix} -(J_a^{-1}J_b)^T & I\end{pmatrix} T \nabla_q H = " + vec(grad_b),
-             "Gradient of H along the manifold of configurations that keep the task."),
+             "Gradient of $H$ along the manifold of configurations that keep the task."),
         Step("Solution", r"\dot q_{RG} = T^T \begin{pmatrix} J_a^{-1}(v - J_b \dot q_b) \\ \dot q_b \end{pmatrix} = " + vec(dq),
              "The free joints follow the reduced gradient, the others realize the task.",
              {"joint_values": [{"label": "RG", "values": dq.tolist()}]}),
@@ -332,7 +332,8 @@ def task_priority(tasks: Sequence[Tuple[Sequence, Sequence]], threshold: float =
         levels.append(PriorityLevel(J, JP, rank_J, rank_JP, dq.copy(), np.zeros(v.size)))
         note = ""
         if rank_JP < rank_J:
-            note = f" Algorithmic singularity: rank(J{k} P{k-1}) = {rank_JP} < rank(J{k}) = {rank_J}; task {k} is only partly executed."
+            note = (rf" Algorithmic singularity: $\mathrm{{rank}}(J_{k} P_{{{k-1}}}) = {rank_JP} < \mathrm{{rank}}(J_{k}) = {rank_J}$; "
+                    f"task {k} is only partly executed.")
         steps.append(Step(f"Priority level {k}",
                           rf"J_{k} P_{{{k-1}}} = {mat(JP)},\quad {symbol}_{k} = {vec(dq)}",
                           f"Task {k} is pursued in the null space of the higher-priority tasks.{note}",

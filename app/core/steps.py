@@ -118,6 +118,28 @@ def _short_trig(expr, coords):
     return expr.xreplace(repl), names
 
 
+def rounded(expr, digits: int = 5):
+    """Floating-point numbers of an expression rounded for display: ``digits`` significant digits,
+    round-off noise (below 1e-12) dropped, whole numbers as integers (exact numbers untouched).
+
+    >>> rounded(sp.Float(0.666666666666667) * sp.Symbol("x") + sp.Float(6e-17) + sp.Float(1.0) * sp.Symbol("y"))
+    0.66667*x + y
+    """
+    floats = expr.atoms(sp.Float) if isinstance(expr, sp.Basic) or isinstance(expr, sp.MatrixBase) else set()
+    if not floats:
+        return expr
+    repl = {}
+    for f in floats:
+        value = float(f)
+        if abs(value) < 1e-12:
+            repl[f] = sp.Integer(0)
+        elif abs(value - round(value)) < 1e-12 * max(1.0, abs(value)):
+            repl[f] = sp.Integer(int(round(value)))
+        else:
+            repl[f] = sp.Float(float(f"{value:.{digits}g}"), digits)
+    return expr.xreplace(repl)
+
+
 def to_latex(expr, coordinates=None, short_trig: bool = True, **kwargs) -> str:
     """LaTeX of a sympy object using the lab's symbol conventions; sines and cosines of sums of
     coordinates are written s_{12}, c_{1} as in the exams (``short_trig=False`` keeps sin/cos).
@@ -128,7 +150,7 @@ def to_latex(expr, coordinates=None, short_trig: bool = True, **kwargs) -> str:
     'c_{12} s_{1}'
     """
     coords = list(coordinates) if coordinates is not None else list(_COORDS)
-    expr = sp.sympify(expr)
+    expr = rounded(sp.sympify(expr))
     trig_names = {}
     if short_trig:
         if isinstance(expr, sp.MatrixBase):

@@ -397,7 +397,7 @@ def _steps(res: TimeOptimal) -> List[Step]:
     return [
         Step("Path dynamics", r"\tau = M(q)\,q_s\,\ddot s + \left(M(q)\,q_{ss} + C(q, q_s)\,q_s\right)\dot s^2 + g(q),\quad "
              r"\dot q = q_s \dot s,\ \ddot q = q_s \ddot s + q_{ss}\dot s^2",
-             "Along the path every bound is linear in s'' and in x = s'^2: lower <= a(s) s'' + b(s) x + c(s) <= upper."),
+             r"Along the path every bound is linear in $\ddot s$ and in $x = \dot s^2$: $\mathrm{lower} \le a(s) \ddot s + b(s) x + c(s) \le \mathrm{upper}$."),
         Step("Phase plane", r"x_{MVC}(s) = \max\{x : \exists\,\ddot s\ \text{within every bound}\},\quad "
              r"\dot s^*(s) = \min(\text{forward},\ \text{backward},\ \text{MVC})",
              "Forward: maximum acceleration from the start; backward: maximum deceleration into the goal "
@@ -405,7 +405,7 @@ def _steps(res: TimeOptimal) -> List[Step]:
         Step("Switching structure", r"\text{" + (arcs.replace("_", r"\_") or "none") + "}",
              f"{len(res.arcs)} arc(s), {len(res.arcs) - 1} switching point(s)."),
         Step("Minimum time", rf"T^* = \int_0^1 \frac{{ds}}{{\dot s(s)}} = {num(res.T)}\ \mathrm{{s}}",
-             "Exact for constant s'' on each grid interval: dt = 2 ds / (s'_k + s'_{k+1})."),
+             r"Exact for constant $\ddot s$ on each grid interval: $\Delta t = 2 \Delta s / (\dot s_k + \dot s_{k+1})$."),
     ]
 
 

@@ -69,9 +69,10 @@ def question_html(exercise, robot_title: str) -> str:
 
 
 def notes_html(notes: Sequence[str]) -> str:
+    """The notes on the printed solution (text with $...$ math) in an amber box."""
     if not notes:
         return ""
-    items = "".join(f'<li style="margin:2px 0">{html.escape(n)}</li>' for n in notes)
+    items = "".join(f'<li style="margin:2px 0">{mathml.text_html(n)}</li>' for n in notes)
     return (f'<div class="r2-notes" style="{NOTE_STYLE}"><b>&#9888; Note on the printed solution</b>'
             f'<ul style="margin:3px 0 0 0;padding-left:18px">{items}</ul></div>')
 
@@ -211,19 +212,22 @@ def wrap_latex(latex: str, width_em: float = mathml.PANEL_WIDTH_EM) -> str:
     return r"\begin{array}{l}" + r"\\".join(rows) + r"\end{array}"
 
 
-def step_html(step, index: int, count: int, current: bool = False, arrow_scale: Optional[float] = None) -> str:
+def step_html(step, index: int, count: int, current: bool = False, arrow_scale: Optional[float] = None,
+              notes: Sequence[str] = ()) -> str:
     """A solution step: counter, title, explanation, the formula (one line per top-level part),
-    the timing-law sketch and the legend of the 3D hints."""
+    the timing-law sketch, the notes on the printed solution about this step and the legend of
+    the 3D hints."""
     parts = mathml.split_top_level(step.latex) if step.latex else []
     profile = step.highlight.get("profile")
     style = CARD_STYLE if current else STEP_STYLE
     return (f'<div class="r2-step" data-step="{index}" style="{style}">'
             f'<div class="r2-label" style="margin-top:0">Step {index + 1} of {count}</div>'
-            f'<div style="font-weight:600;margin:1px 0 3px 0">{html.escape(step.title)}</div>'
-            + (f'<div style="font-size:0.87em;color:#333">{html.escape(step.text)}</div>' if step.text else "")
+            f'<div style="font-weight:600;margin:1px 0 3px 0">{mathml.text_html(step.title)}</div>'
+            + (f'<div style="font-size:0.87em;color:#333">{mathml.text_html(step.text)}</div>' if step.text else "")
             + "".join(mathml.math_html(wrap_latex(p)) for p in parts)
             + (profile_svg(profile) if isinstance(profile, dict) else "")
             + (phase_plane_svg(step.highlight["phase_plane"]) if isinstance(step.highlight.get("phase_plane"), dict) else "")
+            + notes_html(notes)
             + (hint_legend(step.highlight, arrow_scale) if current else "") + "</div>")
 
 

@@ -209,7 +209,7 @@ class ExercisesPanel:
             self.session.notify(f"Cannot open {ex.id}", str(exc), error=True)
             return
         self.header.content = question_html(ex, robot.title)
-        self.notes.content = notes_html(ex.notes)
+        self.notes.content = ""            # notes appear with their step, general ones after the last step
         self._build_fields(ex, robot)
         self._render()
         if keep and self.session.robot_name != ex.robot_ref:    # rebuilt while another robot is shown
@@ -308,7 +308,7 @@ class ExercisesPanel:
             self.hints.draw(highlight, q)
             if sol is not None and 0 <= k < len(sol.steps):
                 self.card.content = step_html(sol.steps[k], k, len(sol.steps), current=True,
-                                              arrow_scale=self.hints.arrow_scale)
+                                              arrow_scale=self.hints.arrow_scale, notes=sol.step_notes(k))
 
     # -------------------------------------------------------------- variants
     def _build_fields(self, ex: Exercise, robot) -> None:
@@ -459,12 +459,13 @@ class ExercisesPanel:
                                  f"Read the question and try it yourself; then press <b>Next ▶</b>. "
                                  f"The solution has {n} steps.</div>")
         else:
-            self.card.content = step_html(sol.steps[k], k, n, current=True, arrow_scale=self.hints.arrow_scale)
-        earlier = "".join(step_html(sol.steps[i], i, n) for i in range(max(k, 0)))
+            self.card.content = step_html(sol.steps[k], k, n, current=True, arrow_scale=self.hints.arrow_scale,
+                                          notes=sol.step_notes(k))
+        earlier = "".join(step_html(sol.steps[i], i, n, notes=sol.step_notes(i)) for i in range(max(k, 0)))
         self._earlier_html.content = (EARLIER_HEADING + earlier) if earlier else ""
         if k == n - 1:
             types = [b.joint.type for b in sol.robot.bodies if b.joint.type != "fixed"]
-            self.answers.content = ANSWERS_HEADING + answers_html(sol.answers, types)
+            self.answers.content = ANSWERS_HEADING + answers_html(sol.answers, types) + notes_html(sol.general_notes())
         else:
             self.answers.content = ""
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import html
 
+from app.core.mathtext import to_unicode
 from app.viewer import mathml
 
 TITLE = "Steps"
@@ -20,8 +21,8 @@ def step_html(step, index: int, count: int) -> str:
     lit_note = f'<div class="r2-label">lit in 3D: {html.escape(", ".join(lit))}</div>' if lit else ""
     return (f'<div class="r2-step" data-step="{index}">'
             f'<div class="r2-label">Step {index + 1} of {count}</div>'
-            f'<div style="font-weight:600;margin:2px 0 4px 0">{html.escape(step.title)}</div>'
-            f'<div style="font-size:0.88em;color:#333">{html.escape(step.text)}</div>'
+            f'<div style="font-weight:600;margin:2px 0 4px 0">{mathml.text_html(step.title)}</div>'
+            f'<div style="font-size:0.88em;color:#333">{mathml.text_html(step.text)}</div>'
             + "".join(mathml.math_html(p) for p in parts) + lit_note + "</div>")
 
 
@@ -34,7 +35,7 @@ def build(session) -> None:
     state = session.state.setdefault("steps", {})
     index = min(state.get("index", 0), len(steps) - 1) if state.get("robot") == session.robot_name else 0
     state["robot"] = session.robot_name
-    titles = [f"{k + 1}. {s.title}" for k, s in enumerate(steps)]
+    titles = [f"{k + 1}. {to_unicode(s.title)}" for k, s in enumerate(steps)]
     jump = gui.add_dropdown("Step", titles, initial_value=titles[index])
     buttons = gui.add_button_group("", ("◀ Previous", "Next ▶", "Clear light"))
     body = gui.add_html(step_html(steps[index], index, len(steps)))

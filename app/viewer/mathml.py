@@ -57,10 +57,20 @@ def _fix_latex(latex: str) -> str:
     return re.sub(r"\\end\{aligned\}", r"\\end{array}", latex)
 
 
+_ACCENT_MOVER = re.compile(r"<mover>((?:(?!</?mover).)*?)<mo>(&#x002D9;|&#x000A8;|&#x0005E;|&#x0007E;|&#x000AF;|&#x02192;)</mo></mover>")
+
+
 @functools.lru_cache(maxsize=4096)
 def latex_to_mathml(latex: str, display: bool = True) -> str:
-    """MathML markup of a LaTeX formula (cached)."""
-    return convert(_fix_latex(latex), display="block" if display else "inline")
+    """MathML markup of a LaTeX formula (cached). Dots, hats and bars are marked as accents
+    (``<mover accent="true">``), so that q̇₂² keeps its dot close to the q and its exponent
+    beside it instead of above a tall over-script.
+
+    >>> 'accent="true"' in latex_to_mathml(r"\\dot{q}_{2}^{2}")
+    True
+    """
+    markup = convert(_fix_latex(latex), display="block" if display else "inline")
+    return _ACCENT_MOVER.sub(r'<mover accent="true">\1<mo stretchy="false">\2</mo></mover>', markup)
 
 
 def math_html(latex: str, display: bool = True, css_class: str = "") -> str:
@@ -263,6 +273,19 @@ def numeric_latex(value, digits: int = 4) -> str:
         arr = arr.reshape(-1, 1)
     body = r"\\".join(" & ".join(number_latex(float(v), digits) for v in row) for row in arr)
     return r"\left(\begin{matrix}" + body + r"\end{matrix}\right)"
+
+
+def text_html(text: str) -> str:
+    """A sentence of the lab's text convention (app/core/mathtext.py) as HTML: plain parts
+    escaped, ``$...$`` segments typeset as inline MathML.
+
+    >>> text_html("Collect $T = \\frac{1}{2}$ & more")[:40]
+    'Collect <math xmlns="http://www.w3.org/1'
+    """
+    import html
+    from app.core.mathtext import split_math
+    return "".join(latex_to_mathml(piece, False) if is_math else html.escape(piece)
+                   for is_math, piece in split_math(text))
 
 
 def label_html(text: str) -> str:

@@ -76,6 +76,7 @@ from ..coordinates import in_coordinates
 from ..dynamics import natural_angles, pretty
 from ..exercise import ExerciseError
 from ..expressions import ExpressionError, parse_number, symbol
+from ..mathtext import symbols_text
 from ..kinematics import Kinematics
 from ..robot import RESERVED_NAMES
 from ..steps import to_latex
@@ -464,11 +465,11 @@ def equilibria_task(ctx, spec):
         if kind == "angle":
             coords = [s for s in a.q if s in variable.free_symbols]
             bodies = [b.name for b in a.robot.bodies if any(b.name in a.bodies_moved_by(s) for s in coords)]
-            a.ctx.step(f"Row {row + 1}: solve for {variable}", rf"{a.L(equation)} = 0 \;\Rightarrow\; {a.L(variable)} \in \{{{vals}\}}",
+            a.ctx.step(f"Row {row + 1}: solve for ${a.L(variable)}$", rf"{a.L(equation)} = 0 \;\Rightarrow\; {a.L(variable)} \in \{{{vals}\}}",
                        "This equation depends on one combination of angles only (its coefficient is assumed nonzero).",
                        bodies=bodies)
         elif kind == "poly":
-            a.ctx.step(f"Row {row + 1}: solve for {variable}", rf"{a.L(equation)} = 0 \;\Rightarrow\; {a.L(variable)} \in \{{{vals}\}}",
+            a.ctx.step(f"Row {row + 1}: solve for ${a.L(variable)}$", rf"{a.L(equation)} = 0 \;\Rightarrow\; {a.L(variable)} \in \{{{vals}\}}",
                        "Solved for one coordinate: the equation is a polynomial in it once the angles (and the coordinates solved later) are fixed.",
                        bodies=a.bodies_moved_by(variable))
         else:
@@ -505,7 +506,7 @@ def equilibria_task(ctx, spec):
     table = sp.Matrix(rows) if rows else sp.zeros(0, len(a.coords))
     a.ctx.step("Equilibria", rf"q_e \in {a.L(table)}" if rows else r"\text{none}",
                f"{len(rows)} equilibrium configuration(s), one per row "
-               f"({', '.join(a.coords)}); coordinates that do not appear stay free.",
+               f"({symbols_text(a.coords)}); coordinates that do not appear stay free.",
                bodies=[b.name for b in a.robot.bodies])
     a.answer("equilibria", table)
     a.answer("equilibria_count", len(rows))
@@ -546,10 +547,10 @@ def gravity_balance_task(ctx, spec):
     conds = _coefficient_conditions(g, list(a.q))
     a.ctx.step("Gravity as a combination of functions of q",
                rf"g(q) = {a.L(g)}" + (rf"\quad ({', '.join(a.L(s) + ' = 0' for s in zero)})" if zero else ""),
-               "g(q) vanishes for every q exactly when every coefficient of each independent function of q vanishes.",
+               "$g(q)$ vanishes for every $q$ exactly when every coefficient of each independent function of q vanishes.",
                bodies=[b.name for b in a.robot.bodies])
     a.ctx.step("Balancing conditions", r"\begin{cases}" + r"\\ ".join(f"{a.L(c)} = 0" for c in conds) + r"\end{cases}",
-               f"Solve them for {', '.join(names)}.")
+               f"Solve them for {symbols_text(names)}.")
     sols = sp.solve(conds, unknowns, dict=True)
     if not sols:
         raise ExerciseError(f"{a.where('solve_for')}: gravity cannot be balanced by choosing {', '.join(names)}")
@@ -567,7 +568,7 @@ def gravity_balance_task(ctx, spec):
     if zero:
         a.ctx.step("Gravity of the balanced robot", rf"g(q) = {a.L(g_bal)}",
                    "What remains once the links are balanced: only the terms of "
-                   + ", ".join(s.name for s in zero) + ".")
+                   + symbols_text(s.name for s in zero) + ".")
     a.answer("balance", sp.Matrix(values))
     for s, v in zip(unknowns, values):
         a.answer(f"balance_{s.name}", v)
@@ -594,16 +595,16 @@ def factorizations_task(ctx, spec):
     ST = a.tidy_matrix(S.T * a.dq)
     bodies = [b.name for b in a.robot.bodies]
     a.ctx.step("Christoffel factorization", rf"S(q,\dot q) = \begin{{pmatrix}} \dot q^T C_1 \\ \vdots \\ \dot q^T C_n \end{{pmatrix}} = {a.L(S)}",
-               "Row i is q'^T C_i with the Christoffel matrices C_i.", bodies=bodies)
+               r"Row $i$ is $\dot q^T C_i$ with the Christoffel matrices $C_i$.", bodies=bodies)
     a.ctx.step("Skew-symmetry check", rf"\dot M - 2S = {a.L(N1)}",
-               "Skew-symmetric: q'^T (M' - 2S) q' = 0, the property used by passivity-based laws." if skew1
+               r"Skew-symmetric: $\dot q^T (\dot M - 2S)\, \dot q = 0$, the property used by passivity-based laws." if skew1
                else "Not skew-symmetric.")
     a.ctx.step("Another factorization", rf"S'(q,\dot q) = {a.L(S_alt)},\quad S'\dot q = c(q,\dot q)", how)
-    a.ctx.step("Skew-symmetry check of S'", rf"\dot M - 2S' = {a.L(N2)}",
+    a.ctx.step("Skew-symmetry check of $S'$", rf"\dot M - 2S' = {a.L(N2)}",
                "Also skew-symmetric (here the two factorizations give the same property)." if skew2
-               else "Not skew-symmetric: S' also gives c = S' q', but M' - 2S' is not skew.")
+               else r"Not skew-symmetric: $S'$ also gives $c = S' \dot q$, but $\dot M - 2S'$ is not skew.")
     a.ctx.step("Generalized momentum", rf"p = M(q)\dot q = {a.L(p)},\quad S^T(q,\dot q)\dot q = {a.L(ST)}",
-               "The momentum-based residual uses p' = tau + S^T q' - g - friction: no accelerations needed.",
+               r"The momentum-based residual uses $\dot p = \tau + S^T \dot q - g - \tau_f$: no accelerations needed.",
                bodies=bodies)
     a.answer("S", S)
     a.answer("S_alt", S_alt)
@@ -628,7 +629,7 @@ def _other_factorization(a: _Analysis, Ck, S):
         S0 = sp.Matrix([[a.expr(e, "plus") for e in row] for row in raw])
         if not all(_is_zero(e) for e in S0 * a.dq):
             raise a.fail("plus", "S0 q' must vanish for every q' (otherwise S + S0 no longer factorizes c)")
-        return a.tidy_matrix(S + S0), (rf"S' = S + S_0,\ S_0 = {a.L(S0)}: S_0\dot q = 0, so S'\dot q = c as well.")
+        return a.tidy_matrix(S + S0), (rf"$S' = S + S_0$ with $S_0 = {a.L(S0)}$: $S_0 \dot q = 0$, so $S' \dot q = c$ as well.")
     first = {"first": True, "last": False}.get(a.spec.get("alternative", "last"))
     if first is None:
         raise a.fail("alternative", "expected 'first' or 'last' (the column of each product q'_j q'_k)")
@@ -642,8 +643,8 @@ def _other_factorization(a: _Analysis, Ck, S):
                 else:
                     S_alt[i, k] += coeff * a.dq[j]
     col = "j" if first else "k"
-    return a.tidy_matrix(S_alt), (f"Each product q'_j q'_k (j <= k) of c_i is written as its coefficient times the "
-                                  f"other velocity, in column {col}.")
+    return a.tidy_matrix(S_alt), (r"Each product $\dot q_j \dot q_k$ ($j \le k$) of $c_i$ is written as its coefficient "
+                                  f"times the other velocity, in column ${col}$.")
 
 
 # ====================================================================== changes of coordinates
@@ -674,11 +675,11 @@ def coordinate_map_task(ctx, spec):
     g_new = a.tidy_matrix(change.g)
     th = sp.Matrix(theta)
     a.ctx.step("Change of coordinates", rf"q = f(\theta) = {a.L(f)},\quad T = \frac{{\partial f}}{{\partial \theta}} = {a.L(T)}",
-               "Velocities map as q' = T theta'; the kinetic energy keeps its value.")
+               r"Velocities map as $\dot q = T \dot\theta$; the kinetic energy keeps its value.")
     a.ctx.step("Inertia matrix in the new coordinates", rf"M_\theta(\theta) = T^T M(f(\theta))\, T = {to_latex(M_new, new)}",
-               "From T = 1/2 theta'^T (T^T M T) theta'.", bodies=[b.name for b in a.robot.bodies])
+               r"From $T = \frac{1}{2} \dot\theta^T (T^T M T)\, \dot\theta$.", bodies=[b.name for b in a.robot.bodies])
     a.ctx.step("Forces in the new coordinates", rf"\tau_\theta = T^T \tau_q,\quad T^T = {a.L(T.T)},\quad g_\theta = {to_latex(g_new, new)}",
-               "Virtual work: tau_theta^T theta' = tau_q^T q'.")
+               r"Virtual work: $\tau_\theta^T \dot\theta = \tau_q^T \dot q$.")
     a.answer("T", T)
     a.answer("q_of_new", f)
     a.answer("M_new", M_new)
@@ -747,7 +748,7 @@ def point_kinematics_task(ctx, spec):
     bodies = [body] if body else []
     a.ctx.step(f"Position of {label}", rf"p_{{{label}}} = {a.L(p)}", "Forward kinematics of the point.", bodies=bodies)
     a.ctx.step(f"Jacobian of {label}", rf"J_{{{label}}} = \frac{{\partial p}}{{\partial q}} = {a.L(J)}",
-               "p' = J q'.", bodies=bodies)
+               r"$\dot p = J \dot q$.", bodies=bodies)
     a.answer(f"p_{label}", p)
     a.answer(f"J_{label}", J)
     if J.cols == J.rows:
@@ -784,9 +785,9 @@ def cartesian_inertia_task(ctx, spec):
     Mp = sp.Matrix(J.rows, J.cols, lambda i, j: sp.factor(sp.cancel(sp.together((Jinv.T * a.M * Jinv)[i, j]))))
     Mp = a.tidy_matrix(Mp)
     a.ctx.step(f"Jacobian of {label}", rf"p = {a.L(p)},\quad J = {a.L(J)},\quad \det J = {a.L(det)}",
-               "M_p exists away from the singularities det J = 0.", bodies=[body] if body else [])
+               r"$M_p$ exists away from the singularities $\det J = 0$.", bodies=[body] if body else [])
     a.ctx.step("Cartesian inertia", rf"M_p(q) = J^{{-T}} M J^{{-1}} = {a.L(Mp)}",
-               "Kinetic energy in task coordinates: T = 1/2 p'^T M_p p'.", bodies=[b.name for b in a.robot.bodies])
+               r"Kinetic energy in task coordinates: $T = \frac{1}{2} \dot p^T M_p \dot p$.", bodies=[b.name for b in a.robot.bodies])
     a.answer("J", J)
     a.answer("det_J", det)
     a.answer("M_p", Mp)
@@ -802,7 +803,7 @@ def cartesian_inertia_task(ctx, spec):
         Mpv = Jiv.T @ Mv @ Jiv
         a.ctx.step("At the given configuration",
                    rf"M(q^*) = {a.L(sp.Matrix(np.round(Mv, 6)))},\quad M_p(q^*) = {a.L(sp.Matrix(np.round(Mpv, 6)))}",
-                   "With the exercise's numbers; a force F at rest gives p'' = M_p^-1 F.")
+                   r"With the exercise's numbers; a force $F$ at rest gives $\ddot p = M_p^{-1} F$.")
         a.answer("M_at", Mv)
         a.answer("M_p_at", Mpv)
         a.answer("M_p_inv_at", np.linalg.inv(Mpv))
@@ -820,14 +821,14 @@ def rest_acceleration_task(ctx, spec):
     rhs = u - a.g - a.k
     ddq = a.tidy_matrix(a.M.LUsolve(rhs))
     a.ctx.step("Accelerations from rest", rf"\ddot q_0 = M^{{-1}}(q)\,(u - g(q)) = {a.L(ddq)}",
-               "With q' = 0 the velocity terms vanish.", bodies=[b.name for b in a.robot.bodies])
+               r"With $\dot q = 0$ the velocity terms vanish.", bodies=[b.name for b in a.robot.bodies])
     a.answer("ddq_rest", ddq)
     if spec.get("point") is not None:
         body, label, p, J = _point_data(a)
         pdd = a.tidy_matrix(J * ddq)
         norm2 = sp.factor(sp.cancel(sp.together(sp.expand(sp.simplify((pdd.T * pdd)[0])))))
         a.ctx.step(f"Acceleration of {label}", rf"\ddot p_0 = J(q)\,\ddot q_0 = {a.L(pdd)}",
-                   "The term J'(q) q' vanishes at rest.", bodies=[body] if body else [])
+                   r"The term $\dot J(q)\, \dot q$ vanishes at rest.", bodies=[body] if body else [])
         a.ctx.step("Its squared norm", rf"\|\ddot p_0\|^2 = {a.L(norm2)}", "")
         a.answer("pdd_rest", pdd)
         a.answer("pdd_rest_norm2", norm2)
@@ -912,12 +913,12 @@ def gravity_gradient_bound_task(ctx, spec):
     peak_expr = near if (near.is_Rational and abs(float(near) - peak) < 1e-10) else sp.Float(peak, 15)
     alpha = _positive(k) * peak_expr
     a.ctx.step("Gradient of gravity", rf"\frac{{\partial g}}{{\partial q}} = {a.L(dg)}",
-               "Its norm bounds how fast g changes between two configurations.",
+               "Its norm bounds how fast $g$ changes between two configurations.",
                bodies=[b.name for b in a.robot.bodies])
     a.ctx.step("Its largest norm", rf"\alpha = \max_q \left\|\frac{{\partial g}}{{\partial q}}\right\| = {a.L(alpha)}",
-               f"Spectral norm of dg/dq divided by {k}, maximised over the configurations with the "
-               "exercise's numbers; PD control with a constant gravity compensation g(q_d) is globally asymptotically stable "
-               "when the smallest proportional gain exceeds alpha.")
+               rf"Spectral norm of $\partial g/\partial q$ divided by ${to_latex(k)}$, maximised over the configurations "
+               "with the exercise's numbers; PD control with a constant gravity compensation $g(q_d)$ is globally "
+               r"asymptotically stable when the smallest proportional gain exceeds $\alpha$.")
     a.answer("dg_dq", dg)
     a.answer("alpha", alpha)
     a.answer("alpha_at", sp.Matrix([float(x) for x in q_star]) if len(q_star) else sp.zeros(0, 1))
@@ -932,8 +933,8 @@ def gravity_gradient_bound_task(ctx, spec):
         if not sols:
             raise a.fail("solve_for", f"alpha does not reach {kp:g} for any positive {name}")
         bound = float(min(sols))
-        a.ctx.step(f"Largest {name}", rf"\alpha({a.L(s)}) < {kp:g} \;\Leftrightarrow\; {a.L(s)} < {bound:.4f}",
-                   "The condition K_P,min > alpha, solved for the parameter.")
+        a.ctx.step(f"Largest ${a.L(s)}$", rf"\alpha({a.L(s)}) < {kp:g} \;\Leftrightarrow\; {a.L(s)} < {bound:.4f}",
+                   r"The condition $K_{P,\min} > \alpha$, solved for the parameter.")
         a.answer(f"{name}_max", bound)
 
 
@@ -983,7 +984,7 @@ def kinetic_energy_decay_task(ctx, spec):
                r"-\gamma T = -\tfrac{\gamma}{2}\dot q^T M(q)\dot q",
                "The kinetic energy changes only through the power of the torques.")
     a.ctx.step("A torque that achieves it", rf"\tau = -\frac{{\gamma}}{{2}} M(q)\dot q = {a.L(tau)}",
-               "One solution of q'^T tau = -gamma T (any torque orthogonal to q' may be added).",
+               r"One solution of $\dot q^T \tau = -\gamma T$ (any torque orthogonal to $\dot q$ may be added).",
                bodies=[b.name for b in a.robot.bodies])
     a.answer("tau_decay", tau)
     q = a.configuration("at")

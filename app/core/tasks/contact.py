@@ -71,6 +71,11 @@ from . import task
 from .kinematic import data
 
 
+def _names(names) -> str:
+    """Velocity/force component names for a sentence, typeset (``v_x`` -> ``$v_{x}$``)."""
+    return ", ".join(f"${sp.latex(sp.Symbol(n))}$" for n in names)
+
+
 def _planar_rows(robot):
     return ["x", "y"] if robot.is_planar else ["x", "y", "z"]
 
@@ -119,7 +124,7 @@ def static_torque_task(ctx, spec):
             target = d.array(f["target"], f"forces.{label}.target").reshape(-1)
             K = np.diag(K * np.ones(p.size)) if K.ndim < 2 else K
             F = K @ (target - p)
-            how = f"Cartesian spring F = K (p_d - p) with p = {vec(p)}."
+            how = f"Cartesian spring $F = K (p_d - p)$ with $p = {vec(p)}$."
         t = float(f.get("sign", 1)) * con.static_torque(J, F)
         tau += t
         ctx.step(f"Force {label}", rf"F_{{{label}}} = {vec(F)},\quad J^T = {mat(J.T)},\quad J^T F = {vec(t)}", how,
@@ -206,7 +211,7 @@ def contact_force_task(ctx, spec):
         except UserError as exc:
             raise d._fail(f"contact_force: {exc}") from None
         ctx.step("Force and contact point", rf"\tau_c = (J_o + l\,J_u)^T F\ \Rightarrow\ l = {num(est.distance)},\quad F = {vec(est.force)}",
-                 "J_c is affine in the distance l along the link: with enough joint torques both are found.")
+                 "$J_c$ is affine in the distance $l$ along the link: with enough joint torques both are found.")
     else:
         l = d.number(dist, "distance")
         est = con.estimate_contact(Jo, Ju, tau_c, distance=l)
@@ -247,7 +252,7 @@ def collision_analysis_task(ctx, spec):
                  rf"v_c = J_c \dot q = {vec(v)},\quad v_c^T F = {num(power)},\quad \tau_c = J_c^T F = {vec(tau)}",
                  ("Energy residual: detected. " if e_det else "Energy residual: not detected (no power exchanged). ")
                  + (f"Momentum residual: detected, isolated on link {link}." if m_det else
-                    "Momentum residual: not detected (F lies in the null space of J_c^T)."),
+                    "Momentum residual: not detected ($F$ lies in the null space of $J_c^T$)."),
                  vectors=[_highlight_force(label, p, F)], configuration={cc: float(x) for cc, x in zip(d.robot.coordinates, q)})
         ctx.answer(f"v_{label}", v)
         ctx.answer(f"power_{label}", power)
@@ -290,7 +295,7 @@ def impedance_gains_task(ctx, spec):
         how = rf"s^2 + 2\zeta\omega_n s + \omega_n^2:\ \omega_n = {sp.latex(w)},\ \zeta = {sp.latex(z)}"
     K, D = K.applyfunc(sp.expand), D.applyfunc(sp.expand)
     ctx.step("Impedance gains", how + rf",\quad M_d = {sp.latex(m.T)},\ K_d = {sp.latex(K.T)},\ D_d = {sp.latex(D.T)}",
-             "M_d x'' + D_d x' + K_d x = F along each direction.")
+             r"$M_d \ddot x + D_d \dot x + K_d x = F$ along each direction.")
     one = lambda X: X[0] if X.rows == 1 else X
     suffix = f"_{spec['suffix']}" if spec.get("suffix") else ""
     ctx.answer("M_d" + suffix, one(m))
@@ -310,7 +315,7 @@ def force_capability_task(ctx, spec):
     r = float(limits.min())
     joint = int(np.argmin(limits)) + 1
     ctx.step("Force capability", rf"|\tau_i| = |J_i^T F| \le \|J_i\|\,\|F\| \le T_i\ \Rightarrow\ \|F\| \le \min_i \frac{{T_i}}{{\|J_i\|}} = {num(r)}",
-             f"Column norms of J: {', '.join(num(x) for x in norms)}; joint {joint} limits the force (equality for F along its column).",
+             f"Column norms of $J$: {', '.join(num(x) for x in norms)}; joint {joint} limits the force (equality for $F$ along its column).",
              configuration={c: float(v) for c, v in zip(d.robot.coordinates, q)})
     ctx.answer("force_max", r)
     ctx.answer("force_limiting_joint", joint)
@@ -330,13 +335,13 @@ def hybrid_constraints_task(ctx, spec):
         if pair not in con.PAIRS or axis not in axes:
             raise d._fail(f"hybrid_constraints.contact: expected {{pair: {' | '.join(con.PAIRS)}, axis: x | y | z}}")
         free = con.PAIRS[pair](axes[axis])
-        how = f"A {pair} contact with axis {axis}_t leaves free: {', '.join(con.VELOCITY_NAMES[i] for i in free) or 'nothing'}."
+        how = f"A {pair} contact with axis ${axis}_t$ leaves free: {_names(con.VELOCITY_NAMES[i] for i in free) or 'nothing'}."
     elif "free" in spec:
         bad = [v for v in spec["free"] if v not in con.VELOCITY_NAMES]
         if bad:
             raise d._fail(f"hybrid_constraints.free: unknown directions {bad} (use {', '.join(con.VELOCITY_NAMES)})")
         free = [con.VELOCITY_NAMES.index(v) for v in spec["free"]]
-        how = f"Free motions: {', '.join(spec['free'])}."
+        how = f"Free motions: {_names(spec['free'])}."
     else:
         raise d._fail("hybrid_constraints: give contact {pair, axis} or free [...]")
     directions = spec.get("directions", "all")
@@ -351,7 +356,7 @@ def hybrid_constraints_task(ctx, spec):
         Jn = np.atleast_2d(jac.evaluate(robot, J6, q, d.params))
         commandable = [i for i in range(6) if np.linalg.norm(Jn[i]) > 1e-9]
         ctx.step("Directions the robot commands", r"J(q) = " + mat(Jn),
-                 f"Rows of the geometric Jacobian that are not zero: {', '.join(con.VELOCITY_NAMES[i] for i in commandable)}.",
+                 f"Rows of the geometric Jacobian that are not zero: {_names(con.VELOCITY_NAMES[i] for i in commandable)}.",
                  configuration={c: float(v) for c, v in zip(robot.coordinates, q)})
     else:
         bad = [v for v in directions if v not in con.VELOCITY_NAMES]
@@ -378,8 +383,9 @@ def hybrid_constraints_task(ctx, spec):
     empty = r"\emptyset"
     ctx.step("Selection matrices", rf"S_f = {mat(res.S_f) if res.S_f.size else empty},\quad S_v = {mat(res.S_v) if res.S_v.size else empty}",
              f"{len(res.force_controlled)} force loop(s), {len(res.velocity_controlled)} velocity loop(s)"
-             + (f"; the robot cannot impose {', '.join(res.uncontrolled)}" if res.uncontrolled else "")
-             + (f" ({', '.join(automatic)} = 0 hold by themselves: the structure resists those directions)" if automatic else "") + ".")
+             + (f"; the robot cannot impose {_names(res.uncontrolled)}" if res.uncontrolled else "")
+             + (f" (${' = '.join(sp.latex(sp.Symbol(n)) for n in automatic)} = 0$ hold by themselves: the structure "
+                "resists those directions)" if automatic else "") + ".")
     syms = lambda names: [sp.Symbol(n) for n in names]
     ctx.answer(f"{name}_natural_velocities", syms(res.natural_velocities))
     ctx.answer(f"{name}_natural_forces", syms(res.natural_forces))
@@ -415,11 +421,11 @@ def residual_response_task(ctx, spec):
     if "torque" in spec:
         tau_c = d.array(spec["torque"], "torque").reshape(-1) * np.ones(n)
         disturbance = lambda q: tau_c
-        what = f"generalized force {vec(tau_c)}"
+        what = f"generalized force ${vec(tau_c)}$"
     elif "fault" in spec:
         u_f = d.array(spec["fault"], "fault").reshape(-1) * np.ones(n)
         disturbance = lambda q: -u_f
-        what = f"fault u_f = {vec(u_f)} subtracted from the commands"
+        what = f"fault $u_f = {vec(u_f)}$ subtracted from the commands"
     elif "force" in spec:
         F = d.array(spec["force"], "force").reshape(-1)
         pos, jacf = num_model.point_function(*jac.point_location(robot, spec.get("point", "ee")))
@@ -427,7 +433,7 @@ def residual_response_task(ctx, spec):
         if F.size != rows:
             raise d._fail(f"residual_response.force: expected {rows} components")
         disturbance = lambda q: jacf(q)[:rows].T @ F
-        what = f"force {vec(F)} on {spec.get('point', 'ee')}"
+        what = f"force ${vec(F)}$ on {str(spec.get('point', 'ee')).replace('_', ' ')}"
     else:
         raise d._fail("residual_response: give a torque, a fault or a force")
     hold = spec.get("hold")
@@ -464,9 +470,9 @@ def residual_response_task(ctx, spec):
     steady = disturbance(q0)
     dev = float(np.max(np.abs(resid - filt)))
     ctx.step("Momentum residual", r"r = K\left(p(t) - p(0) - \int_0^t (\tau + C^T(q,\dot q)\dot q - g(q) + r)\,ds\right)\ \Rightarrow\ \dot r = K(\tau_d - r)",
-             f"Disturbance from t = {num(t_c)} s: {what}.", configuration={c: float(v) for c, v in zip(robot.coordinates, q0)})
+             f"Disturbance from $t = {num(t_c)}$ s: {what}.", configuration={c: float(v) for c, v in zip(robot.coordinates, q0)})
     ctx.step("Simulated response", rf"\max_t |r(t) - r_{{filter}}(t)| = {num(dev, 10)},\quad r(\infty) = \tau_d(t_c) = {vec(steady)}",
-             "The residual computed from the simulated motion equals the first-order filter of the disturbance: r(t) = (1 - exp(-K (t - t_c))) tau_d when tau_d is constant.")
+             r"The residual computed from the simulated motion equals the first-order filter of the disturbance: $r(t) = (1 - e^{-K (t - t_c)})\, \tau_d$ when $\tau_d$ is constant.")
     ctx.answer(f"{name}_deviation", dev)
     ctx.answer(f"{name}_steady", steady)
     if times:
@@ -502,12 +508,12 @@ def hybrid_control_task(ctx, spec):
     tau_f = (J.T * R * f).applyfunc(sp.expand)
     u = (dyn.M * Ji * R * acc).applyfunc(sp.factor_terms) - tau_f     # J^T R M_bar = M J^-1 R (R orthogonal)
     ctx.step("Task frame", r"R = " + sp.latex(R) + r",\quad v = R^T J \dot q,\quad \tau_f = J^T R f,\ f = " + sp.latex(f),
-             "Frictionless surface: the environment reacts only along the normal n; compliant: v_n = delta_n', f_n = K_n delta_n.")
+             r"Frictionless surface: the environment reacts only along the normal $n$; compliant: $v_n = \dot\delta_n$, $f_n = K_n \delta_n$.")
     ctx.step("Model in the task frame", r"\bar M \dot v = \bar\tau + f,\quad \bar M = " + sp.latex(M_bar) + r",\quad \bar\tau = " + sp.latex(tau_bar),
-             "Linear but coupled between t and n when the frame is not aligned with the joints.")
+             "Linear but coupled between $t$ and $n$ when the frame is not aligned with the joints.")
     ctx.step("Decoupling law", r"\bar\tau = \bar M " + sp.latex(acc) + r" - f\ \Rightarrow\ \dot v = " + sp.latex(acc),
-             "Exponential convergence of the tangential velocity; along n: M_f delta'' + K_d delta' + K_n delta = f_d with M_f = 1/K_f, so f_n -> f_d.")
-    ctx.step("Joint torques", r"\tau = J^T R \bar\tau = M J^{-1} R \dot v - \tau_f = " + sp.latex(u), "J^T R M_bar = M J^-1 R since R is a rotation.")
+             r"Exponential convergence of the tangential velocity; along $n$: $M_f \ddot\delta + K_d \dot\delta + K_n \delta = f_d$ with $M_f = 1/K_f$, so $f_n \to f_d$.")
+    ctx.step("Joint torques", r"\tau = J^T R \bar\tau = M J^{-1} R \dot v - \tau_f = " + sp.latex(u), r"$J^T R \bar M = M J^{-1} R$ since $R$ is a rotation.")
     ctx.answer("R", R)
     ctx.answer("M_bar", M_bar)
     ctx.answer("tau_bar", tau_bar)

@@ -56,6 +56,7 @@ import sympy as sp
 from ..dynamics import _complexity, _independent_columns
 from ..exercise import ExerciseError
 from ..expressions import symbol
+from ..mathtext import symbols_text
 from ..robot import KNOWN_KINDS
 from ..steps import to_latex
 from ..trig import TrigPoly
@@ -240,7 +241,7 @@ def parametrization_task(ctx, spec):
     if spec.get("input_gain") is not None:
         lhs = rf"\left({lhs}\right) / {to_latex(ctx.expr(spec['input_gain']))}"
     ctx.step("Dynamic coefficients", rf"a{sfx} = {m.L(a)}",
-             f"{len(par.a)} coefficients (known: {', '.join(par.known) or 'none'}); each is a product "
+             f"{len(par.a)} coefficients (known: {symbols_text(par.known)}); each is a product "
              "(or a sum of products) of unknown parameters; "
              + ("this is the minimal number." if len(par.a) == par.minimal else
                 f"the minimal number is {par.minimal}."))
@@ -250,7 +251,7 @@ def parametrization_task(ctx, spec):
     ctx.step("Regressor", rf"{lhs} = Y{sfx} a{sfx}{known_txt},\quad Y{sfx} = {m.L(par.Y)}",
              "Each column collects what multiplies one coefficient; the match is exact.")
     ctx.step("Adaptive regressor", rf"Y{sfx}(q,\dot q,\dot q_r,\ddot q_r) = {m.L(par.Y_r)}",
-             "Replace q'' by q''_r and C(q, q') q' by C(q, q') q'_r (friction on q'_r).")
+             r"Replace $\ddot q$ by $\ddot q_r$ and $C(q, \dot q)\, \dot q$ by $C(q, \dot q)\, \dot q_r$ (friction on $\dot q_r$).")
     ctx.answer(f"Y{sfx}", par.Y)
     ctx.answer(f"Y{sfx}_r", par.Y_r)
     ctx.answer(f"a{sfx}", a)
@@ -308,20 +309,20 @@ def adaptive_law_task(ctx, spec):
     a_est = sp.Matrix([par.a[k] for k in est])
     L = lambda x: latex_law(m, x)
     ctx.step("Reference velocity", rf"\dot q_r = \dot q_d + \Lambda e = {L(dq_r)},\quad \ddot q_r = {L(ddq_r)}",
-             "e = q_d - q; with Lambda = K_D^-1 K_P the PD term equals K_D (q'_r - q')."
-             if not free_lambda else "e = q_d - q and Lambda > 0 diagonal.")
+             r"$e = q_d - q$; with $\Lambda = K_D^{-1} K_P$ the PD term equals $K_D (\dot q_r - \dot q)$."
+             if not free_lambda else r"$e = q_d - q$ and $\Lambda > 0$ diagonal.")
     ctx.step("Adaptive regressor", rf"Y(q,\dot q,\dot q_r,\ddot q_r) = {m.L(par.Y_r)},\quad a = {m.L(sp.Matrix(par.a))}",
              "The model evaluated on the reference motion, linear in the coefficients.")
     ctx.step("Control law", rf"u = {L(u)}",
              f"Estimates of {len(est)} coefficient(s)" + (f"; the known ones ({len(fixed)}) enter with their values." if fixed else ".")
-             + " Gains K_P, K_D > 0 diagonal.", joints=[b.name for b in m.robot.bodies])
+             + r" Gains $K_P, K_D > 0$ diagonal.", joints=[b.name for b in m.robot.bodies])
     ctx.step("Update law", rf"\dot{{\hat a}} = \Gamma Y^T (\dot q_r - \dot q) = {L(update)}",
-             f"The controller has {len(est)} state(s): the estimates {L(a_est)}.")
+             f"The controller has {len(est)} state(s): the estimates ${L(a_est)}$.")
     ctx.step("Lyapunov analysis",
              r"V = \tfrac12 s^T M s + e^T K_P e + \tfrac12 \tilde a^T \Gamma^{-1} \tilde a,\quad "
              rf"\dot V = {L(V_dot)} \le 0",
-             "With s = q'_r - q', M' - 2C skew-symmetric and the update law, V' is negative semidefinite; "
-             "Barbalat's lemma gives e, e' -> 0.")
+             r"With $s = \dot q_r - \dot q$, $\dot M - 2C$ skew-symmetric and the update law, $\dot V$ is negative "
+             r"semidefinite; Barbalat's lemma gives $e, \dot e \to 0$.")
     ctx.answer("u", u)
     ctx.answer("update", update)
     ctx.answer("dq_r", dq_r)
@@ -343,13 +344,13 @@ def computed_torque_task(ctx, spec):
     dyn = m.dyn
     if form == "feedback_linearization":
         u = m.M * (s["ddq_d"] + Kd * s["de"] + Kp * s["e"]) + m.n
-        text = "Cancel the nonlinear terms and impose e'' + K_D e' + K_P e = 0 (exponential, decoupled)."
+        text = r"Cancel the nonlinear terms and impose $\ddot e + K_D \dot e + K_P e = 0$ (exponential, decoupled)."
         latex = r"u = M(q)\left(\ddot q_d + K_D \dot e + K_P e\right) + c(q,\dot q) + g(q)"
     elif form == "passivity":
         fric_d = dyn.friction.subs(dict(zip(m.dq, s["dq_d"])), simultaneous=True)
         u = m.M * s["ddq_d"] + m.C * s["dq_d"] + dyn.g + dyn.spring + fric_d + Kp * s["e"] + Kd * s["de"]
         text = ("Model-based feedforward on the desired motion plus PD; with the skew-symmetric "
-                "factorization C the tracking error converges (Lyapunov with M' - 2C skew).")
+                r"factorization $C$ the tracking error converges (Lyapunov with $\dot M - 2C$ skew).")
         latex = r"u = M(q)\ddot q_d + C(q,\dot q)\dot q_d + g(q) + K_P e + K_D \dot e"
     else:
         raise ExerciseError(f"computed_torque.form: expected feedback_linearization or passivity, got {form!r}")
@@ -452,17 +453,17 @@ def regulation_task(ctx, spec):
     u3 = m.M * (Kp * e - Kd * m.dq) + m.n
     L = lambda x: latex_law(m, x)
     ctx.step("PD + gravity compensation", rf"u = K_P (q_d - q) - K_D \dot q + g(q) = {L(u1)}",
-             "Any K_P, K_D > 0: global asymptotic stability (Lyapunov V = T + 1/2 e^T K_P e and LaSalle).")
+             r"Any $K_P, K_D > 0$: global asymptotic stability (Lyapunov $V = T + \frac{1}{2} e^T K_P e$ and LaSalle).")
     ctx.step("Gradient of gravity", rf"\frac{{\partial g}}{{\partial q}} = {m.L(dg)},\quad \alpha = {m.L(alpha)}",
-             "alpha bounds the norm of the gravity gradient everywhere (|sin|, |cos| <= 1).")
+             r"$\alpha$ bounds the norm of the gravity gradient everywhere ($|\sin|, |\cos| \le 1$).")
     ctx.step("PD + constant gravity compensation", rf"u = K_P (q_d - q) - K_D \dot q + g(q_d) = {L(u2)}",
-             "Global asymptotic stability if lambda_min(K_P) > alpha; otherwise spurious equilibria may appear.")
+             r"Global asymptotic stability if $\lambda_{\min}(K_P) > \alpha$; otherwise spurious equilibria may appear.")
     ctx.step("Feedback linearization", rf"u = M(q)\left(K_P (q_d - q) - K_D \dot q\right) + c + g = {L(u3.applyfunc(sp.expand))}",
              "Exact cancellation: decoupled linear error dynamics, global exponential convergence (nominal model).")
     ctx.step("Other laws", "",
              "PID (local asymptotic stability, gains from Routh conditions) and iterative gravity "
-             "compensation (PD plus the torque of the previous rest configuration, with K_P large with "
-             "respect to alpha) also regulate without knowing g(q) exactly.")
+             "compensation (PD plus the torque of the previous rest configuration, with $K_P$ large with "
+             r"respect to $\alpha$) also regulate without knowing $g(q)$ exactly.")
     ctx.answer("u_pd_gravity", u1)
     ctx.answer("dg_dq", dg)
     ctx.answer("alpha", alpha)

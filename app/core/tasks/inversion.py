@@ -24,6 +24,7 @@ import sympy as sp
 from .. import jacobians as jac
 from .. import redundancy as red
 from ..latex import mat, num, vec
+from ..steps import symbol_latex
 from . import task
 from .kinematic import data
 
@@ -74,7 +75,7 @@ def inversion_task(ctx, spec):
         K = d.array(spec["damping"], "damping")
         K = np.diag(K * np.ones(n)) if K.ndim < 2 else K
         x0 = -K @ lower
-        how = f"x_0 = -K {'q_dot' if order == 2 else 'q_ddot'}: damps the joint motion in the null space."
+        how = (r"$x_0 = -K \dot q$" if order == 2 else r"$x_0 = -K \ddot q$") + ": damps the joint motion in the null space."
     else:
         x0 = np.zeros(n)
         how = "Minimum norm."
@@ -83,8 +84,8 @@ def inversion_task(ctx, spec):
     drift_tex = r"\dot J \dot q" if order == 2 else r"2 \dot J \ddot q + \ddot J \dot q"
     p_tex = r"\ddot p" if order == 2 else r"\dddot p"
     ctx.step("Drift term", rf"n = {drift_tex} = {vec(drift)},\quad {p_tex} - n = {vec(target)}",
-             f"Differentiating p' = J q' {'once' if order == 2 else 'twice'} more; evaluated at q' = {vec(dq)}"
-             + (f", q'' = {vec(ddq)}" if order == 3 else "") + ".",
+             rf"Differentiating $\dot p = J \dot q$ {'once' if order == 2 else 'twice'} more; evaluated at "
+             rf"$\dot q = {vec(dq)}$" + (rf", $\ddot q = {vec(ddq)}$" if order == 3 else "") + ".",
              configuration={c: float(v) for c, v in zip(robot.coordinates, q)})
     res = red.resolve(J, target, weights=W if "weights" in spec else None, preferred=x0, symbol=sym, task_symbol="t")
     ctx.steps.extend(res.steps)
@@ -115,7 +116,7 @@ def task_velocity_task(ctx, spec):
     if dq.size != J.shape[1]:
         raise d._fail(f"task_velocity.velocity: expected {J.shape[1]} values")
     v = J @ dq
-    ctx.step(f"Task velocity {name}", rf"{name} = J \dot q = {mat(J)} {vec(dq)} = {vec(v)}", "")
+    ctx.step(f"Task velocity ${symbol_latex(name)}$", rf"{symbol_latex(name)} = J \dot q = {mat(J)} {vec(dq)} = {vec(v)}", "")
     ctx.answer(name, v)
 
 
@@ -149,9 +150,9 @@ def pinv_vs_transpose_task(ctx, spec):
     xa, xb, w2, sw2, r = _compare_inverses(J, xd, thr)
     tol = 1e-9 * max(1.0, float(np.linalg.norm(xd)))
     ctx.step("Pseudoinverse command", rf"\dot x_A = J J^\# \dot x_d = U \Sigma \Sigma^\# U^T \dot x_d = {vec(xa)},\quad \dot x_d^T \dot x_A = \|w\|^2 = {num(w2)}",
-             f"Rank {r}: the projection of x'_d on the range of J (w = U_r^T x'_d); the angle with x'_d is at most pi/2.")
+             rf"Rank {r}: the projection of $\dot x_d$ on the range of $J$ ($w = U_r^T \dot x_d$); the angle with $\dot x_d$ is at most $\pi/2$.")
     ctx.step("Transpose command", rf"\dot x_B = J J^T \dot x_d = U \Sigma \Sigma^T U^T \dot x_d = {vec(xb)},\quad \dot x_d^T \dot x_B = \sum_i \sigma_i^2 w_i^2 = {num(sw2)}",
-             "Each range direction is scaled by sigma_i^2: also at most pi/2 from x'_d, but not equal to it.")
+             r"Each range direction is scaled by $\sigma_i^2$: also at most $\pi/2$ from $\dot x_d$, but not equal to it.")
     ctx.answer(f"{name}_A", xa)
     ctx.answer(f"{name}_B", xb)
     ctx.answer(f"{name}_inner_A", float(xd @ xa))
@@ -180,7 +181,7 @@ def pinv_vs_transpose_task(ctx, spec):
             exact_a &= bool(np.linalg.norm(a - x_range) <= 1e-8 * max(1.0, np.linalg.norm(x_range)))
             exact_b += int(np.linalg.norm(b - x_range) <= 1e-8 * max(1.0, np.linalg.norm(x_range)))
         ctx.step("Random singular Jacobians", rf"{count}\ \text{{instances}}:\ \dot x_d^T \dot x_{{A,B}} \ge 0\ \text{{always}}: {'yes' if acute else 'no'}",
-                 f"For x'_d in the range, the pseudoinverse was exact in {'all' if exact_a else 'not all'} instances, the transpose in {exact_b}.")
+                 f"For $\\dot x_d$ in the range, the pseudoinverse was exact in {'all' if exact_a else 'not all'} instances, the transpose in {exact_b}.")
         ctx.answer(f"{name}_random_acute", acute)
         ctx.answer(f"{name}_random_range_exact_A", exact_a)
         ctx.answer(f"{name}_random_range_exact_B_count", exact_b)

@@ -45,7 +45,7 @@ from ..errors import UserError
 from ..exercise import ExerciseError
 from ..expressions import ExpressionError, parse_expression
 from ..latex import mat, num, vec
-from ..steps import to_latex
+from ..steps import symbol_latex, to_latex
 from . import task
 
 
@@ -253,7 +253,7 @@ def jacobian_task(ctx, spec):
         J_num = np.vstack([p["num"] for p in parts])
         if all(p["sym"] is not None for p in parts):
             J_sym = sp.Matrix.vstack(*[p["sym"] for p in parts])
-        what = "stacked " + ", ".join(spec["stack"])
+        what = "stacked " + ", ".join(f"${_tex(p)}$" for p in spec["stack"])
     elif "expression" in spec:
         exprs = spec["expression"] if isinstance(spec["expression"], list) else [spec["expression"]]
         r_sym = sp.Matrix([d.expression(e, f"{name}.expression") for e in exprs])
@@ -266,7 +266,8 @@ def jacobian_task(ctx, spec):
             r_sym = jac.task_function(robot, spec.get("point"), comps, spec.get("body")) if "frame" not in spec else None
         except UserError as exc:
             raise d._fail(f"{name}: {exc}") from None
-        what = f"rows {', '.join(comps)} of {spec.get('point') or spec.get('body')}" + (f" in the frame of {spec['frame']}" if spec.get("frame") else "")
+        what = (f"rows {', '.join(f'${_tex(c)}$' for c in comps)} of {_point_text(spec.get('point') or spec.get('body'), robot)}"
+                + (f" in the frame of {spec['frame']}" if spec.get("frame") else ""))
     q = None
     params = d.params
     for k, v in (spec.get("parameters") or {}).items():
@@ -278,11 +279,12 @@ def jacobian_task(ctx, spec):
         J_num = np.atleast_2d(jac.evaluate(robot, d.substitute(J_sym), q, params))
     d.store[name] = {"sym": J_sym, "num": J_num, "r": r_sym, "q": q}
     if J_sym is not None:
-        ctx.step(f"Jacobian {name}", f"{_tex(name)}(q) = " + L(J_sym), f"{what.capitalize()}.")
+        ctx.step(f"Jacobian ${_tex(name)}$", f"{_tex(name)}(q) = " + L(J_sym), f"{what[:1].upper() + what[1:]}.")
         ctx.answer(name, J_sym)
     conf = {c: float(v) for c, v in zip(robot.coordinates, q)} if q is not None else {}
-    ctx.step(f"{name} at the configuration", f"{_tex(name)} = " + mat(J_num),
-             ("q = " + ", ".join(f"{c} = {num(v)}" for c, v in conf.items())) if conf else "Numeric matrix.",
+    ctx.step(f"${_tex(name)}$ at the configuration", f"{_tex(name)} = " + mat(J_num),
+             ("At $" + ", ".join(f"{to_latex(robot.q[k], robot.coordinates)} = {num(v)}" for k, v in enumerate(conf.values()))
+              + "$.") if conf else "Numeric matrix.",
              configuration=conf)
     ctx.answer(f"{name}_num", J_num)
     if spec.get("position") and r_sym is not None and q is not None:
@@ -293,7 +295,7 @@ def jacobian_task(ctx, spec):
         Jdot = sum((J_sym.diff(qk) * dqk for qk, dqk in zip(robot.q, robot.dq)), sp.zeros(*J_sym.shape))
         Jdot_dq = (Jdot * sp.Matrix(robot.dq)).applyfunc(sp.expand)
         ctx.step("Velocity-dependent term", rf"\dot {_tex(name)}(q, \dot q)\,\dot q = " + L(Jdot_dq),
-                 "Second-order kinematics: p'' = J q'' + J' q'.")
+                 r"Second-order kinematics: $\ddot p = J \ddot q + \dot J \dot q$.")
         ctx.answer(f"{name}_dot_dq", Jdot_dq)
     a = jac.analyze(J_num, float(spec.get("threshold", jac.DEFAULT_THRESHOLD)))
     ctx.answer(f"{name}_rank", a.rank)
@@ -308,7 +310,7 @@ def jacobian_task(ctx, spec):
         if a.null_space.shape[1]:
             text += "Null-space columns are joint motions that leave the task still (self motions). "
         if a.left_null_space.shape[1]:
-            text += "Left null-space columns are task directions no joint velocity can produce; forces along them are balanced by the structure with zero joint torques (J^T F = 0)."
+            text += "Left null-space columns are task directions no joint velocity can produce; forces along them are balanced by the structure with zero joint torques ($J^T F = 0$)."
         ctx.step("Rank and null spaces",
                  rf"\mathrm{{rank}}\,{_tex(name)} = {a.rank},\quad \mathcal{{N}}({_tex(name)}) = \mathrm{{span}}\," + mat(a.null_space if a.null_space.size else np.zeros((J_num.shape[1], 1)))
                  + (rf",\quad \mathcal{{N}}({_tex(name)}^T) = \mathrm{{span}}\," + mat(a.left_null_space) if a.left_null_space.shape[1] else ""),
@@ -329,8 +331,17 @@ def jacobian_task(ctx, spec):
 
 
 def _tex(name: str) -> str:
-    head, _, tail = name.partition("_")
-    return f"{head}_{{{tail}}}" if tail else head
+    """LaTeX of a Jacobian's or component's name (``J_cm`` -> ``J_{cm}``, ``j1`` -> ``j_{1}``)."""
+    return symbol_latex(str(name))
+
+
+def _point_text(point, robot) -> str:
+    """A point of a task for a sentence: its name, or "the point at (x, y, z) of link2"."""
+    if isinstance(point, dict):
+        at = point.get("at")
+        where = f" at ${to_latex(sp.Matrix([parse_expression(str(v)) for v in at]).T, robot.coordinates)}$" if at else ""
+        return f"the point{where} of {point.get('body', 'the last link')}"
+    return str(point).replace("_", " ")
 
 
 @task("forward_kinematics")

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import sympy as sp
 
+from ..mathtext import symbols_text
 from ..steps import to_latex
 from . import task
 
@@ -20,6 +21,7 @@ def dynamics_task(ctx, spec):
     """Derive the model; ``show`` limits the steps shown (default: all the derivation steps)."""
     dyn = ctx.dynamics()
     show = spec.get("show")
+    first = len(ctx.steps)
     for st in dyn.steps:
         if st.title in ("Linear parametrization", "Adaptive regressor"):
             continue
@@ -43,6 +45,24 @@ def dynamics_task(ctx, spec):
         ctx.answer(f"v_{body}", v)
     for body, w in dyn.angular_velocities.items():
         ctx.answer(f"w_{body}", w)
+    _tie_answers_to_steps(ctx, dyn, first)
+
+
+def _tie_answers_to_steps(ctx, dyn, first: int) -> None:
+    """Each answer of the model belongs to the derivation step that shows it (notes on the printed
+    solution that name an answer are shown with that step)."""
+    titles = {"M": "Inertia matrix", "g": "Gravity vector", "c": "Coriolis", "C": "Factorization",
+              "U": "Potential energy", "spring": "Spring forces", "friction": "Friction"}
+    titles.update({f"C{i}": f"Christoffel matrix $C_{{{i}}}$" for i in range(1, len(dyn.christoffel) + 1)})
+    for body in dyn.kinetic:
+        shown = body.replace("_", " ")
+        titles[f"T_{body}"] = f"Kinetic energy of {shown}"
+        for kind in ("p", "v", "w"):
+            titles[f"{kind}_{body}"] = f"Kinematics of {shown}"
+    for name, title in titles.items():
+        hits = [k for k in range(first, len(ctx.steps)) if ctx.steps[k].title.startswith(title)]
+        if name in ctx.answers and hits:
+            ctx.answer_steps[name] = hits[0]
 
 
 @task("regressor")
@@ -54,8 +74,8 @@ def regressor_task(ctx, spec):
     ctx.step("Dynamic coefficients",
              r"a = " + L(sp.Matrix(par.a)),
              f"Collect the model in products of unknown parameters; columns that are combinations of "
-             f"others merge, leaving {par.count} independent coefficients (known: {', '.join(par.known) or 'none'}).")
-    ctx.step("Regressor", r"Y(q,\dot q,\ddot q) = " + L(par.Y), "Y a reproduces M q'' + c + g (+ springs, friction).")
+             f"others merge, leaving {par.count} independent coefficients (known: {symbols_text(par.known)}).")
+    ctx.step("Regressor", r"Y(q,\dot q,\ddot q) = " + L(par.Y), r"$Y a$ reproduces $M \ddot q + c + g$ (plus springs and friction).")
     ctx.answer("Y", par.Y)
     ctx.answer("a", sp.Matrix(par.a))
     ctx.answer("regressor_count", par.count)
@@ -66,4 +86,4 @@ def regressor_task(ctx, spec):
         ctx.answer("y0", par.known_terms)
     if spec.get("adaptive"):
         ctx.step("Adaptive regressor", r"Y(q,\dot q,\dot q_r,\ddot q_r) = " + L(par.Y_ref),
-                 "With q'_r = q'_d + Lambda e: u = Y_r a_hat + K_D (q'_r - q'), a_hat' = Gamma Y_r^T (q'_r - q').")
+                 r"With $\dot q_r = \dot q_d + \Lambda e$: $u = Y_r \hat a + K_D (\dot q_r - \dot q)$, $\dot{\hat a} = \Gamma Y_r^T (\dot q_r - \dot q)$.")

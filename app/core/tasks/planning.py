@@ -120,7 +120,7 @@ def minimum_time_task(ctx, spec):
     if any(k in lspec for k in ("V", "A", "Ts")):
         raise d._fail("minimum_time: the law class must have a fixed shape (give ratio = Ts/T, not V, A or Ts)")
     ctx.step("Inverse dynamics along the path", r"\tau(t) = M(q)\ddot q + c(q, \dot q) + g(q),\quad q = q_0 + \sigma(t)\,\Delta q",
-             f"Torque bounds {vec(bounds)}; the law class is {lspec.get('type')}.")
+             f"Torque bounds ${vec(bounds)}$; the law class is {lspec.get('type')}.")
     try:
         res = pl.minimum_time(lambda T: _law(d, lspec, 1.0, T), torque, gravity, bounds)
     except UserError as exc:
@@ -195,7 +195,7 @@ def time_scaling_task(ctx, spec):
         vals = [scaled[i, j] if j is not None else scaled[i] for i, j in enumerate(joints)]
         ctx.answer("g_peaks", np.array([g[i, j] if j is not None else g[i] for i, j in enumerate(joints)], dtype=float))
         ctx.step("Scaled torques", r"\tau_k = " + r",\ ".join(num(v) if np.ndim(v) == 0 else vec(v) for v in vals),
-                 "At the scaled instants t' = k t; the critical joint reaches its bound exactly.")
+                 r"At the scaled instants $t' = k t$; the critical joint reaches its bound exactly.")
         ctx.answer("tau_scaled", np.array(vals, dtype=float))
     else:
         worst = np.unravel_index(np.argmax(np.abs(scaled) / bounds), scaled.shape)
@@ -232,7 +232,7 @@ def decoupled_minimum_time_task(ctx, spec):
         T_all.append(law.T)
     T_star = max(T_all)
     ctx.step("Minimum transfer time", rf"T^* = \max_i T_i = {num(T_star)}",
-             "The faster joint can be slowed down to arrive together; at rest at the goal the inputs hold u = g.")
+             "The faster joint can be slowed down to arrive together; at rest at the goal the inputs hold $u = g$.")
     ctx.answer("T_star", T_star)
     ctx.answer("u_static", g)
     if n == 2 and abs(acc0[0]) > 0:
@@ -300,7 +300,7 @@ def cartesian_tracking_task(ctx, spec):
         st = float(law(tt)[0])
         pdt = P0 + st * t_dir
         et = R @ eRt
-        ctx.step(f"Error at t = {num(tt)}", rf"^R e(t) = {vec(eRt)},\quad e(t) = R\,^R e(t) = {vec(et)},\quad p(t) = p_d(t) - e(t) = {vec(pdt - et)}",
+        ctx.step(f"Error at $t = {num(tt)}$", rf"^R e(t) = {vec(eRt)},\quad e(t) = R\,^R e(t) = {vec(et)},\quad p(t) = p_d(t) - e(t) = {vec(pdt - et)}",
                  "Each task-frame error follows its own linear second-order dynamics.",
                  points=[{"label": "p(t)", "position": list(pdt - et) + [0.0]}, {"label": "p_d(t)", "position": list(pdt) + [0.0]}])
         ctx.answer("error_task_t", eRt)
@@ -349,8 +349,9 @@ def path_minimum_time_task(ctx, spec):
                                               nodes=int(spec.get("nodes", 1000)), names=robot.coordinates)
     except UserError as exc:
         raise d._fail(str(exc)) from None
-    bounds = [f"{name} {vec(v)}" for name, v in (("|tau| <=", torque[1] if torque else None), ("|q'| <=", velocity),
-                                                  ("|q''| <=", acceleration)) if v is not None]
+    bounds = [f"${name} {vec(v)}$" for name, v in ((r"|\tau| \le", torque[1] if torque else None),
+                                                   (r"|\dot q| \le", velocity), (r"|\ddot q| \le", acceleration))
+              if v is not None]
     q_ends = path.q(np.array([0.0, 1.0]))
     ctx.step("Path", rf"q(0) = {vec(q_ends[0])},\ q(1) = {vec(q_ends[1])}", "Bounds: " + "; ".join(bounds) + ".",
              configuration={c: float(v) for c, v in zip(robot.coordinates, q_ends[0])})

@@ -61,13 +61,13 @@ def pointing_task(ctx, spec):
     t = ff - k * e
     conf = {c: float(v) for c, v in zip(robot.coordinates, q)}
     ctx.step("Pointing error", rf"p = {vec([px, py])},\ \alpha = {num(alpha)},\quad \alpha_d = \mathrm{{atan2}}(p_{{ty}} - p_y,\, p_{{tx}} - p_x) = {num(alpha_d)},\quad e_r = \alpha_d - \alpha = {num(e)}",
-             "The end-effector axis should point at the target." + ("" if spec.get("wrap") else " The error is not wrapped to (-pi, pi]."),
+             "The end-effector axis should point at the target." + ("" if spec.get("wrap") else r" The error is not wrapped to $(-\pi, \pi]$."),
              configuration=conf, points=[{"label": "target", "position": [float(pt[0]), float(pt[1]), 0.0]}],
              vectors=[{"label": "target velocity", "origin": [float(pt[0]), float(pt[1]), 0.0], "vector": [float(vt[0]), float(vt[1]), 0.0], "role": "desired"}])
     ctx.step("Task matrix", rf"J_{{\alpha_d}} = \frac{{(p_{{ty}} - p_y,\ -(p_{{tx}} - p_x))}}{{\|p_t - p\|^2}} = {mat(J_ad)},\quad J_r = J_{{\alpha_d}} J_p - J_\alpha = {mat(Jr)}",
-             "alpha_d' = J_alpha_d (p' - p'_t), so alpha' = alpha_d' is J_r q' = J_alpha_d p'_t.")
+             r"$\dot\alpha_d = J_{\alpha_d} (\dot p - \dot p_t)$, so $\dot\alpha = \dot\alpha_d$ is $J_r \dot q = J_{\alpha_d} \dot p_t$.")
     ctx.step("Task velocity", rf"J_{{\alpha_d}} \dot p_t - k\,e_r = {num(ff)} - {num(k)} \cdot ({num(e)}) = {num(t)}",
-             "With J_r q' equal to it the error obeys e_r' = -k e_r.")
+             r"With $J_r \dot q$ equal to it the error obeys $\dot e_r = -k e_r$.")
     d.store[name] = {"sym": None, "num": Jr, "r": None, "q": q}
     ctx.answer(f"{name}_num", Jr)
     ctx.answer(f"{name}_alpha", alpha)

@@ -49,6 +49,7 @@ import sympy as sp
 
 from .. import redundancy as red
 from ..latex import mat, num, vec
+from ..steps import symbol_latex
 from . import task
 from .kinematic import data
 
@@ -125,7 +126,7 @@ def pseudoinverse_task(ctx, spec):
     q = d.configuration(spec.get("q")) if needs_q else None
     W = _weights(d, spec["weights"], q, n) if spec.get("weights") is not None else None
     if W is not None:
-        ctx.step("Weight matrix", "W = " + mat(W), "The norm minimized is q'^T W q'.")
+        ctx.step("Weight matrix", "W = " + mat(W), r"The norm minimized is $\dot q^T W \dot q$.")
     preferred = d.array(spec["preferred"], "preferred").reshape(-1) if "preferred" in spec else None
     grad = None
     if "gradient" in spec:
@@ -169,7 +170,7 @@ def pseudoinverse_task(ctx, spec):
         Jo = d.jacobian(jname)
         vo = d.array(task_vec, f"check.{jname}").reshape(-1)
         e = vo - Jo @ res.dq
-        ctx.step(f"Error on task {jname}", rf"e = v - {jname}\,\dot q = " + vec(e), f"Norm {num(np.linalg.norm(e))}.")
+        ctx.step(f"Error on task ${symbol_latex(jname)}$", rf"e = v - {symbol_latex(jname)}\,\dot q = " + vec(e), f"Norm {num(np.linalg.norm(e))}.")
         ctx.answer(f"{name}_error_{jname}", e)
         ctx.answer(f"{name}_error_{jname}_norm", float(np.linalg.norm(e)))
 
@@ -241,7 +242,7 @@ def sns_task(ctx, spec):
         drift = (d.array(spec["drift"], "drift").reshape(-1) if "drift" in spec
                  else d.drift(spec.get("jacobian", "J"), spec["joint_velocity"]))
         target = target - drift
-        ctx.step("Task without the drift term", rf"\ddot p - \dot J \dot q = {vec(target)}", "At acceleration level the task is J q'' = p'' - J' q'.")
+        ctx.step("Task without the drift term", rf"\ddot p - \dot J \dot q = {vec(target)}", r"At acceleration level the task is $J \ddot q = \ddot p - \dot J \dot q$.")
     if spec.get("limits") is not None:
         lo, hi = _bounds_from_limits(ctx, d, spec, level, n)
     else:
@@ -325,8 +326,8 @@ def weighted_pinv_identity_task(ctx, spec):
     W = red.weighted_matrix(d.array(spec["weights"], "weights"), J.shape[1])
     Wi = np.linalg.inv(W)
     A = red.weighted_pinv(J, W)
-    ctx.step("Square root of the weight", r"W^{-1/2} = " + mat(red.inverse_sqrt(W)), "W symmetric positive definite.")
-    ctx.step("Weighted pseudoinverse", r"J_W^\# = W^{-1/2} (J W^{-1/2})^\# = " + mat(A), "Defined for any rank of J.")
+    ctx.step("Square root of the weight", r"W^{-1/2} = " + mat(red.inverse_sqrt(W)), "$W$ symmetric positive definite.")
+    ctx.step("Weighted pseudoinverse", r"J_W^\# = W^{-1/2} (J W^{-1/2})^\# = " + mat(A), "Defined for any rank of $J$.")
     ctx.answer(name, A)
     if np.linalg.matrix_rank(J) == J.shape[0]:
         direct = Wi @ J.T @ np.linalg.inv(J @ Wi @ J.T)
@@ -356,7 +357,7 @@ def fastest_stop_task(ctx, spec):
     a, b = -Jp @ dp, -Jp @ h
     lam = red.max_scaling(a, b, lo, hi, np.inf)
     ctx.step("Affine family of commands", rf"\dot p = {vec(dp)},\ \dot J \dot q = {vec(h)},\quad u(\lambda) = \lambda a + b,\ a = -J^\# \dot p = {vec(a)},\ b = -J^\# \dot J\dot q = {vec(b)}",
-             "Every lambda >= 0 decelerates the end effector along its velocity; the bounds limit lambda from above and possibly from below.")
+             r"Every $\lambda \ge 0$ decelerates the end effector along its velocity; the bounds limit $\lambda$ from above and possibly from below.")
     ctx.answer(f"{name}_a", a)
     ctx.answer(f"{name}_b", b)
     ctx.answer(f"{name}_drift", h)
@@ -367,7 +368,7 @@ def fastest_stop_task(ctx, spec):
         return
     u = lam * a + b
     ctx.step("Fastest stop", rf"\lambda^* = {num(lam)},\quad u^* = {vec(u)},\quad \ddot p = {vec(J @ u + h)}",
-             "The largest lambda keeping every joint acceleration within its bounds.",
+             r"The largest $\lambda$ keeping every joint acceleration within its bounds.",
              joint_values=[{"label": "u*", "values": u.tolist(), "lower": lo.tolist(), "upper": hi.tolist()}])
     ctx.answer(f"{name}_feasible", 1)
     ctx.answer(f"{name}_lambda", lam)

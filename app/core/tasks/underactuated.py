@@ -76,6 +76,7 @@ from ..coordinates import in_coordinates
 from ..dynamics import natural_angles, pretty
 from ..exercise import ExerciseError
 from ..expressions import symbol
+from ..mathtext import symbols_text
 from ..kinematics import Kinematics
 from ..steps import to_latex
 from ..trig import TrigPoly
@@ -263,7 +264,7 @@ def pfl_task(ctx, spec):
     ddq_o = m.tidy_matrix(X * a + y)
     for k, i in enumerate(oth):
         ddq[i] = ddq_o[k]
-    qn = lambda idx: ", ".join(m.coords[i] for i in idx)
+    qn = lambda idx: symbols_text(m.coords[i] for i in idx)
     ddq_L = sp.Matrix([m.ddq[i] for i in lin])
     ddq_O = sp.Matrix([m.ddq[i] for i in oth])
     passive_bodies = m.bodies_of(passive)
@@ -272,25 +273,25 @@ def pfl_task(ctx, spec):
              rf"M_{{AL}} {m.L(ddq_L)} + M_{{AO}} {m.L(ddq_O)} + n_A = u,\quad "
              rf"M_{{PL}} {m.L(ddq_L)} + M_{{PO}} {m.L(ddq_O)} + n_P = 0,\quad M_{{PO}} = {m.L(M_PO)}",
              f"Split the model into the rows of the actuated ({qn(act)}) and passive ({qn(passive)}) "
-             f"coordinates; {kind} PFL imposes q'' = a on {qn(lin)}.",
+             rf"coordinates; {kind} PFL imposes $\ddot q = a$ on {qn(lin)}.",
              bodies=passive_bodies, joints=passive_bodies)
     cond = m.tidy(det)
     ctx.step("Accelerations of the other coordinates",
              rf"{m.L(ddq_O)} = -M_{{PO}}^{{-1}}\left(M_{{PL}} {m.L(a)} + n_P\right) = {m.L(ddq_o)}",
              "Solve the passive equations for the remaining accelerations"
              + ("." if not cond.free_symbols & set(m.q) else
-                f"; this needs det M_PO = {cond} != 0 (strong inertial coupling)."),
+                rf"; this needs $\det M_{{PO}} = {m.L(cond)} \ne 0$ (strong inertial coupling)."),
              bodies=m.bodies_of(oth))
     ctx.step("Reduced equation",
              rf"{m.L(M_red)} {m.L(ddq_L)} + {m.L(n_red)} = u",
-             "Substitute them into the actuated equations: the inputs now act on q''_L through "
+             r"Substitute them into the actuated equations: the inputs now act on $\ddot q_L$ through "
              "this reduced inertia.", bodies=m.bodies_of(lin), joints=m.bodies_of(act))
     ctx.step("Linearizing feedback",
              rf"u = {m.L(M_red)} {m.L(a)} + {m.L(n_red)} = {m.L(u)}",
-             f"Choosing u this way gives q'' = a on {qn(lin)} exactly and globally (wherever it is defined).",
+             rf"Choosing $u$ this way gives $\ddot q = a$ on {qn(lin)} exactly and globally (wherever it is defined).",
              joints=m.bodies_of(act))
     ctx.step("Closed loop", rf"\ddot q = {m.L(ddq)}",
-             f"The linearized coordinates follow a; {qn(oth)} obey the remaining (zero) dynamics.",
+             f"The linearized coordinates follow $a$; {qn(oth)} obey the remaining (zero) dynamics.",
              bodies=m.bodies_of(oth))
     sfx = str(spec.get("suffix", ""))
     ctx.answer("u" + sfx, u)
@@ -357,16 +358,16 @@ def linearization_task(ctx, spec):
     B = sp.zeros(2 * n, S.cols)
     B[n:, :] = m.tidy_matrix(Minv * S)
     dq_, dv, da = (sp.Matrix([sp.Symbol(r"\Delta " + to_latex(s, m.coords)) for s in v]) for v in (m.q, m.dq, m.ddq))
-    where = ", ".join(f"{k} = {v}" for k, v in at.items()) or "the given state"
+    where = ", ".join(f"{m.L(k)} = {m.L(v)}" for k, v in at.items()) or r"\text{the given state}"
     ctx.step("Equilibrium", rf"q_0:\ {where},\quad \dot q_0 = 0,\quad u_0 = g(q_0) + k(q_0) = {m.L(u0)}",
              "At rest, the input only has to balance gravity and springs; passive coordinates must feel none.",
              bodies=[b.name for b in robot.bodies])
     ctx.step("Linearized model",
              rf"{m.L(M0)} \Delta\ddot q + {m.L(D)} \Delta\dot q + {m.L(K)} \Delta q = {m.L(S)} \Delta u",
-             "First-order expansion: M(q0) for the inertia, damping from viscous friction "
-             "(Coriolis terms are quadratic in q' and vanish), stiffness from the gradient of g + k.")
+             "First-order expansion: $M(q_0)$ for the inertia, damping from viscous friction "
+             r"(Coriolis terms are quadratic in $\dot q$ and vanish), stiffness from the gradient of $g + k$.")
     ctx.step("State space", rf"\dot x = {m.L(A)} x + {m.L(B)} \Delta u",
-             "With x = (Δq, Δq').")
+             r"With $x = (\Delta q, \Delta\dot q)$.")
     ctx.answer("u0", u0)
     ctx.answer("M0", M0)
     ctx.answer("D", D)
@@ -533,7 +534,7 @@ def reduced_dynamics_task(ctx, spec):
     hb = m.bodies_of(range(n))
     ctx.step("Constraint", rf"h(q) = {m.L(h)} = 0,\quad A(q) = \frac{{\partial h}}{{\partial q}} = {m.L(A)},\quad "
              rf"\dot A = {m.L(A_dot)}",
-             "The constraint holds at all times, so A(q) q' = 0 and A q'' + A' q' = 0.", bodies=hb)
+             r"The constraint holds at all times, so $A(q)\, \dot q = 0$ and $A \ddot q + \dot A \dot q = 0$.", bodies=hb)
     ctx.answer("h", h)
     ctx.answer("A", A)
     ctx.answer("A_dot", A_dot)
@@ -543,7 +544,7 @@ def reduced_dynamics_task(ctx, spec):
                 if k_.name not in m.robot.parameters}
         A, A_dot = A.subs(data), A_dot.subs(data)
         ctx.step("Numbers of the constraint", rf"A(q) = {m.L(A)}",
-                 f"The data of the constraint ({', '.join(s_.name for s_ in data)}) are substituted from here on.")
+                 f"The data of the constraint ({symbols_text(s_.name for s_ in data)}) are substituted from here on.")
     # M^-1 = adj(M) / det(M): the determinant cancels in A# and lambda
     adj, det_M = m.M.adjugate(), m.M.det()
     AMA_inv = _inverse((A * adj * A.T).applyfunc(sp.expand))
@@ -554,7 +555,7 @@ def reduced_dynamics_task(ctx, spec):
              rf"M\ddot q + n = S u + A^T\lambda,\quad A^\#_M = M^{{-1}}A^T(AM^{{-1}}A^T)^{{-1}} = {m.L(A_pinv)},\quad "
              rf"\lambda = {m.L(lam)}",
              "Solve for the constraint force; substituting it gives the dynamically consistent "
-             "projection M q'' = (I - A^T A#^T)(S u - n) - M A# A' q'.")
+             r"projection $M \ddot q = (I - A^T A^{\#T}_M)(S u - n) - M A^\#_M \dot A \dot q$.")
     ctx.answer("A_pinv", A_pinv)
     ctx.answer("P", P)
     ctx.answer("lambda", lam)
@@ -593,13 +594,14 @@ def reduced_dynamics_task(ctx, spec):
     u_track = m.tidy_matrix(m.M * qdd + m.n)
     ctx.step("Pseudo-velocities", rf"v = D(q)\dot q = {m.L(D * m.dq)},\quad \begin{{pmatrix}}A\\ D\end{{pmatrix}}^{{-1}} = "
              rf"\begin{{pmatrix}}E & F\end{{pmatrix}} = {m.L(EF)}",
-             f"det [A; D] = {det}: then q' = F(q) v and q'' = F v' - (E A' + F D') q'.")
+             rf"$\det \begin{{pmatrix}}A\\ D\end{{pmatrix}} = {m.L(det)}$: then $\dot q = F(q)\, v$ and "
+             r"$\ddot q = F \dot v - (E \dot A + F \dot D)\, \dot q$.")
     ctx.step("Reduced dynamics", rf"F^T M F\,\dot v + F^T\left(n - M(E\dot A + F\dot D)\dot q\right) = F^T S u,\quad "
              rf"F^T M F = {m.L(M_v)},\quad F^T S = {m.L(B_v)}",
-             "Premultiplying by F^T removes the constraint force (F^T A^T = 0): "
+             r"Premultiplying by $F^T$ removes the constraint force ($F^T A^T = 0$): "
              f"{n - k} equation(s) in the pseudo-velocities.", bodies=hb)
     ctx.step("Input for a desired pseudo-acceleration", rf"u = M(q)\left(F\dot v - (E\dot A + F\dot D)\dot q\right) + n = {m.L(u_track)}",
-             "With every joint actuated this input realizes v' and needs no constraint force (lambda = 0).",
+             r"With every joint actuated this input realizes $\dot v$ and needs no constraint force ($\lambda = 0$).",
              joints=hb)
     ctx.answer("D", D)
     ctx.answer("v", m.tidy_matrix(D * m.dq))
@@ -615,7 +617,7 @@ def reduced_dynamics_task(ctx, spec):
     if B_v.rows == B_v.cols:
         u_red = m.tidy_matrix(_inverse(B_v) * (M_v * dv + n_v))
         ctx.step("Input of the reduced model", rf"u = (F^T S)^{{-1}}\left(F^T M F\,\dot v + n_v\right) = {m.L(u_red)}",
-                 "The input that gives the pseudo-acceleration v' along the constraint (the constraint "
+                 r"The input that gives the pseudo-acceleration $\dot v$ along the constraint (the constraint "
                  "force does the rest).", joints=[m.robot.bodies[i].name for i, a in enumerate(actuated) if a and i < len(m.robot.bodies)])
         ctx.answer("u_reduced", u_red)
     if spec.get("evaluate"):
@@ -702,7 +704,7 @@ def coordinate_change_task(ctx, spec):
         names = spec.get("new") or [f"p{i + 1}" for i in range(n)]
         mp = dict(zip(names, list(Bt.T * m.q)))
         ctx.step("Coordinates conjugate to the torques", rf"\tau_q = {m.L(tau_q_given)} = J^T \tau \Rightarrow J = {m.L(Bt.T)}",
-                 "The torques do work component-wise on p = J q, since tau_q^T q' = tau^T J q' = tau^T p'.")
+                 r"The torques do work component-wise on $p = J q$, since $\tau_q^T \dot q = \tau^T J \dot q = \tau^T \dot p$.")
     else:
         mp = spec.get("map")
         tau = sp.Matrix([symbol(f"tau_p{i + 1}") for i in range(n)])
@@ -722,11 +724,11 @@ def coordinate_change_task(ctx, spec):
     g_p = m.tidy_matrix(change.g + change.spring)
     tau_q = J.T * tau
     ctx.step("New coordinates", rf"p = {m.L(expr)} = J q,\quad J = {m.L(J)},\quad q = {m.L(q_of_p)}",
-             "A constant, invertible linear map: p' = J q' and p'' = J q''.")
+             r"A constant, invertible linear map: $\dot p = J \dot q$ and $\ddot p = J \ddot q$.")
     ctx.step("Generalized forces", rf"\tau_q = J^T \tau_p = {m.L(tau_q)}",
-             "Virtual work: tau_q^T dq = tau_p^T dp; each tau_p performs work on one p.")
+             r"Virtual work: $\tau_q^T \delta q = \tau_p^T \delta p$; each $\tau_{p,i}$ performs work on one $p_i$.")
     ctx.step("Model in the new coordinates", rf"M_p(p) = J^{{-T}} M J^{{-1}} = {m.L(M_p)},\quad c_p = J^{{-T}} c = {m.L(c_p)}",
-             "Substitute q = J^-1 p and premultiply the equations by J^-T.")
+             r"Substitute $q = J^{-1} p$ and premultiply the equations by $J^{-T}$.")
     ctx.answer("J", J)
     ctx.answer("J_inv", Jinv)
     ctx.answer("q_of_p", q_of_p)
@@ -754,9 +756,9 @@ def accelerations_task(ctx, spec):
     M = m.M.subs(state)
     rhs = (tau - m.n).subs(state)
     ddq = m.tidy_matrix(_inverse(M) * rhs)
-    where = ", ".join(f"{k} = {v}" for k, v in state.items()) or "a generic state"
+    where = ", ".join(f"{m.L(k)} = {m.L(v)}" for k, v in state.items())
     ctx.step("Accelerations", rf"\ddot q = M^{{-1}}(q)\left(\tau - n(q,\dot q)\right) = {m.L(ddq)}",
-             f"Forward dynamics at {where}.", bodies=[b.name for b in m.robot.bodies])
+             f"Forward dynamics at ${where}$." if where else "Forward dynamics at a generic state.", bodies=[b.name for b in m.robot.bodies])
     ctx.answer("ddq", ddq)
 
 
@@ -901,8 +903,8 @@ def elastic_joints_task(ctx, spec):
                  "At the desired rest configuration the springs must carry the gravity load.")
     ctx.step("Motor PD with constant gravity compensation",
              rf"u = K_P(\theta_d - \theta) - K_D\dot\theta + g(q_d) = {L(u)}",
-             "Only motor positions and velocities are fed back; with K and K_P large enough with respect "
-             "to the gravity gradient bound, (q_d, theta_d) is the unique, globally asymptotically "
+             "Only motor positions and velocities are fed back; with $K$ and $K_P$ large enough with respect "
+             r"to the gravity gradient bound, $(q_d, \theta_d)$ is the unique, globally asymptotically "
              "stable equilibrium.")
     ctx.step("Lyapunov function", rf"V = T + U + \tfrac12(\theta_d - \theta)^T K_P(\theta_d - \theta) - \theta^T g(q_d),"
              rf"\quad \dot V = {L(V_dot)} \le 0",
