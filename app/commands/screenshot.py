@@ -105,7 +105,8 @@ def _all_docs() -> int:
                 print(f"{path}  ({robot})")
     finally:
         lab.stop()
-    for module in _panel_modules_with_pictures():     # pictures that need a panel's own set-up
+    from app.viewer import sheets
+    for module in _panel_modules_with_pictures() + [sheets]:     # pictures that need their own set-up
         for path in module.save_doc_screenshots(out_dir):
             print(f"{path}  ({module.__name__})")
     return 0

@@ -43,6 +43,7 @@ def font_style() -> str:
             f"src:url(data:font/ttf;base64,{data}) format('truetype');font-display:block}}"
             ".r2-math{overflow-x:auto;overflow-y:hidden;max-width:100%;padding:2px 0}"
             ".r2-math math{font-family:'STIX Two Math',math;font-size:1.05em}"
+            "math{font-family:'STIX Two Math',math}"
             ".r2-math math[display=block]{margin:0.2em 0}"
             ".r2-math mtd[columnalign=left]{text-align:left}"
             ".r2-math mtd[columnalign=right]{text-align:right}"
@@ -57,6 +58,33 @@ def _fix_latex(latex: str) -> str:
     return re.sub(r"\\end\{aligned\}", r"\\end{array}", latex)
 
 
+#: a dotted single letter (q-dot, theta-ddot) becomes one letter with a combining dot: its height
+#: stays that of the letter, so an exponent (q-dot squared) sits where it sits on q
+_COMBINING = {"&#x002D9;": "&#x00307;", "&#x000A8;": "&#x00308;"}
+_DOTTED_LETTER = re.compile(r"<mover><mrow><mi>([^<&]|&#x[0-9A-Fa-f]+;)</mi></mrow><mo>(&#x002D9;|&#x000A8;)</mo></mover>")
+def _math_italic(char: str) -> str:
+    """The mathematical italic code point of a letter (as an entity), so that a letter with a
+    combining dot stays italic (a two-character ``<mi>`` is set upright)."""
+    c = html_unescape(char)
+    if len(c) != 1:
+        return char
+    o = ord(c)
+    if "a" <= c <= "z":
+        cp = 0x210E if c == "h" else 0x1D44E + o - ord("a")
+    elif "A" <= c <= "Z":
+        cp = 0x1D434 + o - ord("A")
+    elif 0x3B1 <= o <= 0x3C9:
+        cp = 0x1D6FC + o - 0x3B1
+    else:
+        return char
+    return f"&#x{cp:05X};"
+
+
+def html_unescape(text: str) -> str:
+    import html
+    return html.unescape(text)
+
+
 _ACCENT_MOVER = re.compile(r"<mover>((?:(?!</?mover).)*?)<mo>(&#x002D9;|&#x000A8;|&#x0005E;|&#x0007E;|&#x000AF;|&#x02192;)</mo></mover>")
 
 
@@ -66,10 +94,11 @@ def latex_to_mathml(latex: str, display: bool = True) -> str:
     (``<mover accent="true">``), so that q̇₂² keeps its dot close to the q and its exponent
     beside it instead of above a tall over-script.
 
-    >>> 'accent="true"' in latex_to_mathml(r"\\dot{q}_{2}^{2}")
+    >>> "<mi>&#x1D45E;&#x00307;</mi>" in latex_to_mathml(r"\\dot{q}_{2}^{2}")
     True
     """
     markup = convert(_fix_latex(latex), display="block" if display else "inline")
+    markup = _DOTTED_LETTER.sub(lambda m: f"<mi>{_math_italic(m.group(1))}{_COMBINING[m.group(2)]}</mi>", markup)
     return _ACCENT_MOVER.sub(r'<mover accent="true">\1<mo stretchy="false">\2</mo></mover>', markup)
 
 
