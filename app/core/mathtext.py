@@ -400,6 +400,7 @@ _NUMBER_RULES = [
     (re.compile(r"(?<![\w.])\d*\.\d{7,}"), "number with more than 6 decimals (round it)"),
     (re.compile(r"10\^\{-1[0-9]\}"), "round-off noise (10^-1x)"),
 ]
+_PATHS = re.compile(r"`[^`]*`|\b[\w./-]+\.(?:py|md|yaml|txt)\b")   # file names and `code` are not formulas
 _UNIT_SLASH = re.compile(r"\b(m|rad|cm|mm|N|N m|kg m|deg|km)/(s|s\^2|s²|rad|m)\b|\b(and|or)/(or|and)\b")
 
 
@@ -425,7 +426,7 @@ def problems(text: str, where: str = "text") -> List[str]:
             if is_math and any(bare.count(a) != bare.count(b) for a, b in ("()", "[]", "{}")) \
                     and not re.search(r"\\left|\\right|\\in|[\[(]\s*-?\S+,\s*\S+\s*[\])]", piece):
                 found.append(f'unbalanced brackets inside ${piece}$: "{text}"')
-        outside = _UNIT_SLASH.sub(" ", plain_parts(text))
+        outside = _PATHS.sub(" ", _UNIT_SLASH.sub(" ", plain_parts(text)))
         for rule, what in _RULES:
             if rule.search(outside):
                 found.append(f'{what} outside $...$: "{text}"')

@@ -122,7 +122,7 @@ def rounded(expr, digits: int = 5):
     """Floating-point numbers of an expression rounded for display: ``digits`` significant digits,
     round-off noise (below 1e-12) dropped, whole numbers as integers (exact numbers untouched).
 
-    >>> rounded(sp.Float(0.666666666666667) * sp.Symbol("x") + sp.Float(6e-17) + sp.Float(1.0) * sp.Symbol("y"))
+    >>> rounded(sp.Float(0.666666666666667) * sp.Symbol("x") + sp.Float(6e-17) + sp.Float(1.0) * sp.Symbol("y"))  # exact: parsed constants
     0.66667*x + y
     """
     floats = expr.atoms(sp.Float) if isinstance(expr, sp.Basic) or isinstance(expr, sp.MatrixBase) else set()

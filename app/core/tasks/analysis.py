@@ -724,7 +724,7 @@ def _invert_forward_map(a: _Analysis):
     Jf = sp.Matrix(h).jacobian(a.q)
     a.ctx.step("New coordinates", rf"{to_latex(sp.Matrix([symbol(k) for k in new]), new)} = {a.L(sp.Matrix(h))},\quad "
                rf"J = \frac{{\partial h}}{{\partial q}} = {a.L(a.tidy_matrix(Jf))}",
-               "Solved for q below (closed form); J is invertible where the new coordinates are valid.")
+               "Solved for $q$ below (closed form); $J$ is invertible where the new coordinates are valid.")
     a.answer("J_forward", a.tidy_matrix(Jf))
     return new, f
 

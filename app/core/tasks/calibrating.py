@@ -29,7 +29,7 @@ import sympy as sp
 from .. import calibration as cal
 from ..expressions import symbol
 from ..kinematics import Kinematics
-from ..latex import mat, vec
+from ..latex import mat, sig, vec
 from ..steps import to_latex
 from . import task
 from .kinematic import data
@@ -83,9 +83,10 @@ def calibration_task(ctx, spec):
     ctx.step("Regressor of the calibration",
              rf"\Delta p_{{{label}}} \approx \Phi(q)\,\begin{{pmatrix}}\Delta\pi\\ \Delta\theta\end{{pmatrix}},\quad "
              rf"\Phi = {L(Phi)}",
-             f"Derivatives of the position of {label} with respect to "
-             + ", ".join(params + [f"the offset of {c}" for c in offs])
-             + (": p depends linearly on them, so the least-squares step is exact." if linear
+             f"Derivatives of the position of {label.replace('_', ' ')} with respect to "
+             + ", ".join([f"${to_latex(symbol(p), coords)}$" for p in params]
+                         + [f"the offset of ${to_latex(symbol(c), coords)}$" for c in offs])
+             + (": $p$ depends linearly on them, so the least-squares step is exact." if linear
                 else ": first-order model, iterated about each new estimate."),
              bodies=[b.name for b in robot.bodies])
     Phi_nom = Phi.subs({symbol(k): _exact(nominal[symbol(k)]) for k in params}).applyfunc(sp.expand)
@@ -112,7 +113,7 @@ def calibration_task(ctx, spec):
     names = params + [f"offset of {c}" for c in offs]
     ctx.step("Least-squares estimate", rf"\Delta = \bar\Phi^\# \Delta\bar p = {vec(est.delta)},\quad "
              + r",\ ".join(rf"{to_latex(symbol(n), coords) if n in params else n} = {v:.4f}" for n, v in zip(names, est.values)),
-             f"{est.iterations} step(s); position error left {est.residual:.2e} m.")
+             f"{est.iterations} step(s); position error left ${sig(est.residual, 3)}$ m.")
     ctx.answer("Phi_stacked", est.stacked_regressor)
     ctx.answer("dp_stacked", est.stacked_error)
     ctx.answer("rank", est.rank)
@@ -144,9 +145,10 @@ def _transform_derivative(ctx, d, spec, nominal):
     dA = cal.transform_derivative(A, symbol(param))
     dA_nom = dA.subs({symbol(param): _exact(nominal[symbol(param)])})
     L = lambda e: to_latex(e, list(robot.coordinates))
-    ctx.step(f"Derivative of the transform of {body}", rf"\frac{{\partial A}}{{\partial {L(symbol(param))}}} = {L(dA)},"
+    ctx.step(f"Derivative of the transform of {body.replace('_', ' ')}", rf"\frac{{\partial A}}{{\partial {L(symbol(param))}}} = {L(dA)},"
              rf"\quad \text{{nominal}}: {L(dA_nom)}",
-             f"Homogeneous transform of {body} from its parent, differentiated with respect to {param} and "
+             f"Homogeneous transform of {body.replace('_', ' ')} from its parent, differentiated with respect to "
+             f"${L(symbol(param))}$ and "
              "evaluated at its nominal value.", bodies=[body])
     ctx.answer("dA", dA)
     ctx.answer("dA_nominal", dA_nom)

@@ -392,7 +392,7 @@ def desired_torque_task(ctx, spec):
         exact = {"q_d_at": qd, "dq_d_at": dqd, "ddq_d_at": ddqd, "tau_d_at": tau}
         exact = {k: _tidy_or_plain(m, v.subs(t, t0)) for k, v in exact.items()}
         nums = {k: np.array(sp.N(v.subs(values).subs(values)), dtype=float).reshape(-1) for k, v in exact.items()}
-        ctx.step(f"At t = {t0}", rf"\tau_d({m.L(t0)}) = {m.L(exact['tau_d_at'])} = {m.L(sp.Matrix(np.round(nums['tau_d_at'], 4)))}",
+        ctx.step(f"At $t = {m.L(t0)}$", rf"\tau_d({m.L(t0)}) = {m.L(exact['tau_d_at'])} = {m.L(sp.Matrix(np.round(nums['tau_d_at'], 4)))}",
                  "The same expressions at the given instant, then with the exercise's numbers.",
                  joints=[b.name for b in m.robot.bodies])
         for k, v in exact.items():

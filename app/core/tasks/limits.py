@@ -111,11 +111,11 @@ def scalar_bound_task(ctx, spec):
     bound = lambda b, sign: L(b) if b is not None else sign + inf
     rows = r",\quad ".join(rf"{bound(b_lo, '-')} \le {L(q.xreplace(back))} \le {bound(b_hi, '')}"
                            for q, b_lo, b_hi in zip(qs, lo, hi))
-    ctx.step(f"Bounds that depend on {name}", rows, f"Each quantity as a function of {name} with its bounds.")
-    ctx.step(f"Each quantity's limit on {name}",
+    ctx.step(f"Bounds that depend on ${L(s_real)}$", rows, f"Each quantity as a function of ${L(s_real)}$ with its bounds.")
+    ctx.step(f"Each quantity's limit on ${L(s_real)}$",
              r",\quad ".join(rf"{name}_{{{i + 1}}} = {L(p)} = {res.per_quantity[i].value:.4g}" for i, p in enumerate(per)),
              "Where each quantity reaches its bound (the feasible side decided at the exercise's numbers).")
-    ctx.step(f"The {find} feasible {name}", rf"{name}^* = {L(exact)} = {res.value:.4g}",
+    ctx.step(f"The {find} feasible ${L(s_real)}$", rf"{name}^* = {L(exact)} = {res.value:.4g}",
              f"Quantity {res.index + 1} is the limiting one.")
     ctx.answer(f"{out}_{tag}", exact)
     ctx.answer(f"{out}_per_quantity", per)

@@ -120,7 +120,7 @@ def minimum_time_task(ctx, spec):
     if any(k in lspec for k in ("V", "A", "Ts")):
         raise d._fail("minimum_time: the law class must have a fixed shape (give ratio = Ts/T, not V, A or Ts)")
     ctx.step("Inverse dynamics along the path", r"\tau(t) = M(q)\ddot q + c(q, \dot q) + g(q),\quad q = q_0 + \sigma(t)\,\Delta q",
-             f"Torque bounds ${vec(bounds)}$; the law class is {lspec.get('type')}.")
+             f"Torque bounds ${vec(bounds)}$; the law class is {str(lspec.get('type')).replace('_', '-')}.")
     try:
         res = pl.minimum_time(lambda T: _law(d, lspec, 1.0, T), torque, gravity, bounds)
     except UserError as exc:
