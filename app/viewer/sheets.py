@@ -173,52 +173,44 @@ def answer_number_texts(value) -> List[str]:
     return [mathml.number_latex(float(x)) for x in arr]
 
 
-def print_pdf(document: str, out: str | Path, browser=None) -> Path:
-    """Print an HTML document to an A4 PDF with headless Chromium (fonts loaded first)."""
+def _render(document: str, out: str | Path, browser, action, **context_options) -> Path:
+    """Load a document into a fresh page of ``browser`` (a new one when None), wait for its fonts,
+    then ``action(page, path)``."""
     from app.viewer.screenshot import Browser
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     own = browser is None
     browser = browser or Browser()
     try:
-        context = browser.browser.new_context()
-        page = context.new_page()
+        context = browser.browser.new_context(**context_options)
         try:
+            page = context.new_page()
+            page.emulate_media(media="print")
             page.set_content(document, wait_until="load")
             page.evaluate("() => document.fonts.ready.then(() => true)")
-            page.pdf(path=str(out), format="A4", print_background=True, prefer_css_page_size=True)
+            action(page, str(out))
         finally:
             context.close()
     finally:
         if own:
             browser.close()
     return out
+
+
+def print_pdf(document: str, out: str | Path, browser=None) -> Path:
+    """Print an HTML document to an A4 PDF with headless Chromium (fonts loaded first)."""
+    return _render(document, out, browser,
+                   lambda page, path: page.pdf(path=path, format="A4", print_background=True, prefer_css_page_size=True))
 
 
 def page_png(document: str, out: str | Path, browser=None, width: int = 794, height: int = 1123) -> Path:
     """A picture of the first printed page of a document (print media, A4 at 96 dpi), e.g. for
     the docs (a PDF cannot be screenshotted by headless Chromium)."""
-    from app.viewer.screenshot import Browser
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    own = browser is None
-    browser = browser or Browser()
-    try:
-        context = browser.browser.new_context(viewport={"width": width, "height": height})
-        page = context.new_page()
-        try:
-            page.emulate_media(media="print")
-            first_page_only = "<style>.r2-sheet-exercise ~ .r2-sheet-exercise{display:none}</style></head>"
-            page.set_content(document.replace("</head>", first_page_only, 1)
-                             .replace("<body>", "<body style='padding:16mm 15mm'>", 1), wait_until="load")
-            page.evaluate("() => document.fonts.ready.then(() => true)")
-            page.screenshot(path=str(out), clip={"x": 0, "y": 0, "width": width, "height": height})
-        finally:
-            context.close()
-    finally:
-        if own:
-            browser.close()
-    return out
+    first_page_only = "<style>.r2-sheet-exercise ~ .r2-sheet-exercise{display:none}</style></head>"
+    document = document.replace("</head>", first_page_only, 1).replace("<body>", "<body style='padding:16mm 15mm'>", 1)
+    return _render(document, out, browser,
+                   lambda page, path: page.screenshot(path=path, clip={"x": 0, "y": 0, "width": width, "height": height}),
+                   viewport={"width": width, "height": height})
 
 
 def verdict_html(verdict) -> str:
