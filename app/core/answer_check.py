@@ -496,11 +496,6 @@ class Diagnosis:
         out: List[Finding] = []
         missing = [m for m in ge if m not in ga]
         extra = [m for m in ga if m not in ge]
-        # sin for cos (or a function of q moved between coefficients) before missing/extra
-        for m in list(missing):
-            for x in list(extra):
-                if m == x:
-                    continue
         for m in ge:
             if m not in ga:
                 continue
@@ -519,9 +514,11 @@ class Diagnosis:
                     out.append(Finding("coefficient", f"the numeric coefficient of the term {where} is wrong",
                                        {"term": self.L(m)}))
                 continue
-            if _swap_sin_cos(fa) == fe or _swap_sin_cos(fa) == -fe:
+            swapped = _ratio(_swap_sin_cos(fa), fe)
+            if swapped is not None:
+                extra_text = "" if abs(swapped) == 1 else ", and its numeric coefficient is wrong too"
                 out.append(Finding("sin_cos", f"in the term {where} a sine stands where a cosine belongs "
-                                              "(or the other way round)", {"term": self.L(m)}))
+                                              f"(or the other way round){extra_text}", {"term": self.L(m)}))
                 continue
             ae, aa = _angles_of(fe), _angles_of(fa)
             if ae != aa:
