@@ -79,7 +79,7 @@ def energy_task(ctx, spec):
             e_dot = simp(-sum(T[j] * sp.Abs(dq[j]) for j in range(len(dq))))
             ctx.step("Fastest decrease while moving", rf"\dot E = \dot q^T u\ \Rightarrow\ u_j = -T_j\,\mathrm{{sign}}\,\dot q_j = {L(tau)},"
                      rf"\quad \dot E = {L(e_dot)}",
-                     "E' is linear in u: each torque at its bound against its joint velocity (any value where q'_j = 0).",
+                     r"$\dot E$ is linear in $u$: each torque at its bound against its joint velocity (any value where $\dot q_j = 0$).",
                      joints=bodies)
             ctx.answer("tau_fastest" + sfx, tau)
             ctx.answer("E_dot_fastest" + sfx, e_dot)
@@ -87,10 +87,10 @@ def energy_task(ctx, spec):
             Minv = m.tidy_matrix(at(m.M).inv())
             tau = g / 2
             gMg = simp((g.T * Minv * g)[0])
-            ctx.step("At rest E' = 0 for any input: look at E''",
+            ctx.step(r"At rest $\dot E = 0$ for any input: look at $\ddot E$",
                      rf"\ddot E = \ddot q^T u = u^T M^{{-1}} u - g^T M^{{-1}} u\ \Rightarrow\ u = \tfrac12 g = {L(tau)},\quad "
                      rf"\ddot E = -\tfrac14 g^T M^{{-1}} g = {L(-gMg / 4)}",
-                     "A convex quadratic in u, smallest at g/2 (within the bounds when |g_j| <= 2 T_j).", joints=bodies)
+                     r"A convex quadratic in $u$, smallest at $g/2$ (within the bounds when $|g_j| \le 2 T_j$).", joints=bodies)
             ctx.step("Kinetic and potential parts", rf"\ddot T = \ddot q^T M \ddot q = \tfrac14 g^T M^{{-1}} g = {L(gMg / 4)},\quad "
                      rf"\ddot U = \ddot E - \ddot T = {L(-gMg / 2)}",
                      "The robot starts moving (T grows) while its potential energy falls twice as fast.")

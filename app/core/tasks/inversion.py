@@ -23,7 +23,7 @@ import sympy as sp
 
 from .. import jacobians as jac
 from .. import redundancy as red
-from ..latex import mat, num, vec
+from ..latex import mat, num, sig, vec
 from ..steps import symbol_latex
 from . import task
 from .kinematic import data
@@ -96,7 +96,7 @@ def inversion_task(ctx, spec):
     if np.linalg.matrix_rank(J) == m:
         sol = np.linalg.solve(kkt, np.concatenate([W @ x0, target]))
         gap = float(np.linalg.norm(sol[:n] - x))
-        ctx.step("Optimality check", rf"\begin{{pmatrix}} W & J^T \\ J & 0 \end{{pmatrix}} \begin{{pmatrix}} x \\ \lambda \end{{pmatrix}} = \begin{{pmatrix}} W x_0 \\ t \end{{pmatrix}}:\ \|x - x_{{KKT}}\| = {num(gap, 12)}",
+        ctx.step("Optimality check", rf"\begin{{pmatrix}} W & J^T \\ J & 0 \end{{pmatrix}} \begin{{pmatrix}} x \\ \lambda \end{{pmatrix}} = \begin{{pmatrix}} W x_0 \\ t \end{{pmatrix}}:\ \|x - x_{{KKT}}\| {_gap(gap)}",
                  how + " The closed form is the constrained minimizer.")
     ctx.answer(name, x)
     ctx.answer(f"{name}_drift", drift)
@@ -185,3 +185,8 @@ def pinv_vs_transpose_task(ctx, spec):
         ctx.answer(f"{name}_random_acute", acute)
         ctx.answer(f"{name}_random_range_exact_A", exact_a)
         ctx.answer(f"{name}_random_range_exact_B_count", exact_b)
+
+
+def _gap(gap: float) -> str:
+    """The optimality gap for display: round-off (below 1e-9) shown as such, not as noise digits."""
+    return r"\le 10^{-9}" if gap < 1e-9 else "= " + sig(gap, 2)

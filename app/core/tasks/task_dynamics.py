@@ -55,7 +55,7 @@ def task_acceleration_task(ctx, spec):
     ctx.step("Task and its Jacobian", rf"r(q) = {L(r)},\quad J = {L(J)}", f"The position of {name}"
              + (" and the extra task rows." if rows else "."), bodies=bodies)
     ctx.step("Task acceleration", rf"\ddot r = J\ddot q + \dot J\dot q,\quad \dot J = {L(J_dot)},\quad \dot J\dot q = {L(J_dot_dq)}",
-             "Differentiating r' = J q' once more.", bodies=bodies)
+             r"Differentiating $\dot r = J \dot q$ once more.", bodies=bodies)
     ctx.answer("p", r)
     ctx.answer("J", J)
     ctx.answer("J_dot", J_dot)

@@ -47,7 +47,7 @@ import sympy as sp
 
 from .. import dynamic_redundancy as dr
 from ..errors import UserError
-from ..latex import mat, num, vec
+from ..latex import mat, num, sig, vec
 from ..numeric import compiled_function
 from ..steps import to_latex
 from . import task
@@ -308,8 +308,8 @@ def dynamic_redundancy_task(ctx, spec):
     conf = {c: float(v) for c, v in zip(robot.coordinates, p.q0)} if not p.symbolic else {}
     x_tex = r"\dot q" if level == "velocity" else r"\ddot q"
     ctx.step("Task constraint", rf"J(q)\,{x_tex} = r,\quad r = {P.r_tex} = {p.show(tidy(r))}",
-             ("Differentiate the task twice: x'' = J q'' + J' q'." if level == "acceleration"
-              else "First-order differential kinematics x' = J q'.")
+             (r"Differentiate the task twice: $\ddot x = J \ddot q + \dot J \dot q$." if level == "acceleration"
+              else r"First-order differential kinematics $\dot x = J \dot q$.")
              + (" Feedback on the task error recovers it exponentially." if "feedback" in spec else ""),
              configuration=conf)
     if W is not None:
@@ -319,7 +319,7 @@ def dynamic_redundancy_task(ctx, spec):
     sol = res.solution
     if torque_level:
         ctx.step("Task in the torques", rf"A = J M^{{-1}} = {p.show(tidy(res.A))},\quad A\tau = r + A n = d = {p.show(tidy(res.d))}",
-                 "Substitute q'' = M^-1 (tau - n): the task becomes linear in the torques.")
+                 r"Substitute $\ddot q = M^{-1} (\tau - n)$: the task becomes linear in the torques.")
         ctx.answer(f"{name}_A", tidy(res.A))
         ctx.answer(f"{name}_d", tidy(res.d))
     pinv_tex = r"A_W^\#" if torque_level else r"J_W^\#"
@@ -381,7 +381,7 @@ def _limits(p: _Problem, spec, name: str, value):
         s = sp.Symbol(str(key), real=True)
         to = sp.oo if str(target) in ("oo", "inf") else p.expr(target, f"limits.{key}")
         out = tidy_matrix(sp.Matrix(value).applyfunc(lambda e: sp.limit(e, s, to)))
-        p.ctx.step(f"Limit for {key} -> {target}", rf"\lim_{{{sp.latex(s)} \to {sp.latex(to)}}} = {p.show(out)}", "")
+        p.ctx.step(f"Limit for ${sp.latex(s)} \\to {sp.latex(to)}$", rf"\lim_{{{sp.latex(s)} \to {sp.latex(to)}}} = {p.show(out)}", "")
         p.ctx.answer(f"{name}_limit_{key}", out)
 
 
@@ -401,7 +401,7 @@ def _numeric_checks(p, name, level, objective, J, r, M, nvec, W, x0, res, fixed:
         gap = float(np.linalg.norm(best - res.tau))
     else:
         gap = float(np.linalg.norm(dr.kkt_minimizer(J, r, Wm, -Wm @ x0v) - res.ddq))
-    ctx.step("Optimality check", rf"\|x - x_{{KKT}}\| = {num(gap, 12)}",
+    ctx.step("Optimality check", rf"\|x - x_{{KKT}}\| {_gap(gap)}",
              "The closed form coincides with the minimizer from the optimality conditions of the constrained problem.")
     ctx.answer(f"{name}_kkt_gap", gap)
 
@@ -445,10 +445,15 @@ def _simulate(p: _Problem, P: _Pieces, opts, name: str):
     x_d = p.sym(p.vector(fb.get("target", [0] * m), m, "feedback.target"))
     err = (evaluate(x_d - p.sym(p.f_sym), q, dq)).reshape(-1)
     p.ctx.step("Simulated motion", rf"t = {num(T)}:\ q = {vec(q)},\ \dot q = {vec(dq)},\ x_d - f(q) = {vec(err)}",
-               f"q'' = a(q, q') integrated with step {num(h)} s; smallest singular value of the solved "
+               rf"$\ddot q = a(q, \dot q)$ integrated with step {num(h)} s; smallest singular value of the solved "
                f"Jacobian along the way {num(sigma[0])} (no singularity when it stays away from 0).",
                configuration={c: float(v) for c, v in zip(p.robot.coordinates, q)})
     p.ctx.answer(f"{name}_final_q", q)
     p.ctx.answer(f"{name}_final_dq", dq)
     p.ctx.answer(f"{name}_final_task_error", err)
     p.ctx.answer(f"{name}_min_sigma", sigma[0])
+
+
+def _gap(gap: float) -> str:
+    """The optimality gap for display: round-off (below 1e-9) shown as such, not as noise digits."""
+    return r"\le 10^{-9}" if gap < 1e-9 else "= " + sig(gap, 2)
