@@ -383,7 +383,7 @@ def to_markdown(text: str) -> str:
 
 # ---------------------------------------------------------------------- rules (the readability lint)
 _RULES = [
-    (re.compile(r"\{'|'\}|\['|'\]|': |\bNone\b|\bTrue\b|\bFalse\b|<[a-z_]+ object|\bdict\(|\barray\("),
+    (re.compile(r"\{'|'\}|\['|'\]|': |\bNone\b(?! of\b)|\bTrue\b|\bFalse\b|<[a-z_]+ object|\bdict\(|\barray\("),
      "Python structure"),
     (re.compile(r"\\[A-Za-z]+|\\[\\{}]"), "raw LaTeX outside $...$"),
     (re.compile(r"(?<![<>=!])=(?!=)|<=|>=|->|=>|!="), "plain-text formula (=)"),

@@ -39,7 +39,7 @@ import sympy as sp
 from .. import visual_servoing as vs
 from ..exercise import ExerciseError
 from ..expressions import ExpressionError, parse_expression, symbol
-from ..latex import mat, num, vec
+from ..latex import mat, num, sig, vec
 from ..newton_euler import NewtonEuler, NewtonEulerError
 from ..robot import elementary_rotation
 from ..steps import to_latex
@@ -92,7 +92,7 @@ def interaction_matrix_task(ctx, spec):
     how = ("the mean of the point matrices (the barycentre moves with the mean velocity)" if combine == "mean"
            else "one pair of rows per point")
     ctx.step("Interaction matrix", rf"\dot f = J (V, \Omega),\quad {to_latex(name)} = {to_latex(J)}",
-             f"Pin-hole projection u = lambda X/Z, v = lambda Y/Z of fixed points seen by a moving camera; {how}; "
+             rf"Pin-hole projection $u = \lambda X/Z$, $v = \lambda Y/Z$ of fixed points seen by a moving camera; {how}; "
              f"rank {rank}.")
     if spec.get("nullspace"):
         basis = vs.null_basis(J)
@@ -101,13 +101,14 @@ def interaction_matrix_task(ctx, spec):
         ctx.answer("null_basis", N)
         ctx.step("Camera motions that keep the features still",
                  rf"\mathcal N({to_latex(name)}) = \operatorname{{span}}\ {to_latex(N)}",
-                 f"Dimension 6 - {rank} = {len(basis)}: one basis vector per free velocity component.")
+                 f"Dimension $6 - {rank} = {len(basis)}$: one basis vector per free velocity component.")
         if spec.get("at"):
             subs = {symbol(k): _expr(ctx, v, f"interaction_matrix.at.{k}") for k, v in spec["at"].items()}
             N_at = N.xreplace(subs).applyfunc(sp.cancel)
             ctx.answer("null_basis_at", N_at)
             ctx.step("Special case", rf"{to_latex(N_at)}",
-                     "The same basis for " + ", ".join(f"{k} = {v}" for k, v in spec["at"].items()) + ".")
+                     "The same basis for $" + ", ".join(f"{to_latex(symbol(k))} = {to_latex(_expr(ctx, v, k))}"
+                                                      for k, v in spec["at"].items()) + "$.")
     for label, comps in (spec.get("subspaces") or {}).items():
         if not isinstance(comps, list) or not all(c in vs.COMPONENTS for c in comps):
             raise _fail(ctx, f"interaction_matrix.subspaces.{label}", f"components among {', '.join(vs.COMPONENTS)}")
@@ -115,7 +116,7 @@ def interaction_matrix_task(ctx, spec):
         ctx.answer(f"{label}_dim", len(vecs))
         value = vecs[0] if len(vecs) == 1 else _columns(vecs)
         ctx.answer(label, value)
-        ctx.step(f"Still motions using only {', '.join(comps)}",
+        ctx.step("Still motions using only " + ", ".join(f"${to_latex(sp.Symbol(c))}$" for c in comps),
                  rf"\dim = {len(vecs)}" + (rf",\quad (V, \Omega) \propto {to_latex(_columns(vecs))}" if vecs else ""),
                  "The other velocity components are set to zero and the null space of the remaining columns is taken.")
     if spec.get("desired"):
@@ -203,9 +204,9 @@ def visual_servoing_task(ctx, spec):
              "Points expressed in the camera frame and projected; eta is the norm of the feature error.",
              bodies=[body], configuration=conf)
     ctx.step("Task Jacobian", rf"J = J_p J_m = {mat(J, 3)},\quad J_\eta = -\frac{{e^T J}}{{\eta}} = {vec(J_eta, 3)}^T",
-             f"J_m maps q' to the camera twist in camera axes; J agrees with differences of the projected features "
-             f"to {num(answers['J_check'], 8)}.", joints=[b.name for b in robot.bodies])
+             r"$J_m$ maps $\dot q$ to the camera twist in camera axes; $J$ agrees with differences of the projected "
+             f"features to ${sig(answers['J_check'], 2)}$.", joints=[b.name for b in robot.bodies])
     ctx.step("Regulation of the norm", rf"J_\eta^\# = -\eta\frac{{J^T e}}{{e^T J J^T e}},\quad \dot q = -k\,\eta\,J_\eta^\# = {vec(dq, 3)},"
              rf"\quad \dot\eta = J_\eta \dot q = {num(answers['eta_dot'])} = -k\eta",
-             f"J_eta J_eta^# = 1, so eta' = -k eta; the projector I - J_eta^# J_eta has rank {answers['P_rank']} "
-             f"(the null space of a one-row task), J_eta^# J_eta rank {answers['pinv_J_rank']}.")
+             r"$J_\eta J_\eta^\# = 1$, so $\dot\eta = -k \eta$; the projector $I - J_\eta^\# J_\eta$ has rank "
+             f"{answers['P_rank']} (the null space of a one-row task), " + r"$J_\eta^\# J_\eta$" + f" rank {answers['pinv_J_rank']}.")

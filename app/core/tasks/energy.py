@@ -152,9 +152,9 @@ def _hamiltonian(ctx, m: Model, fixed, sfx: str) -> None:
              "The total energy written with the generalized momentum.")
     ctx.step("Its gradients", rf"\nabla_p H = M^{{-1}} p = {L(dH_dp)},\quad \nabla_q H = \tfrac12\,\mathrm{{col}}"
              rf"\{{p^T \tfrac{{\partial M^{{-1}}}}{{\partial q_i}} p\}} + g = {L(dH_dq)}",
-             "With dM^-1/dq_i = -M^-1 (dM/dq_i) M^-1.")
+             r"With $\partial M^{-1}/\partial q_i = -M^{-1} (\partial M/\partial q_i) M^{-1}$.")
     ctx.step("Hamilton's equations", rf"\dot q = \nabla_p H,\quad \dot p = -\nabla_q H + u = {L(p_dot)}",
-             "They agree with d/dt (M q') along the Lagrangian model (checked at random points)." if consistent
+             r"They agree with $\frac{d}{dt}(M \dot q)$ along the Lagrangian model (checked at random points)." if consistent
              else "They do not agree with the Lagrangian model at random points.")
     ctx.answer("H" + sfx, H)
     ctx.answer("dH_dp" + sfx, dH_dp)

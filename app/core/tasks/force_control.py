@@ -271,7 +271,7 @@ def _routh_steps(ctx, sp_, char):
     if zeros:
         sp_.answer("poles_at_zero", zeros)
         ctx.step("Poles at the origin", rf"a(s) = s^{{{zeros}}}\left({_latex(ctx, sp.collect(poly.as_expr(), lc.s))}\right)",
-                 f"{zeros} pole(s) at s = 0: the loop is not asymptotically stable in position; the Routh criterion "
+                 f"{zeros} pole(s) at $s = 0$: the loop is not asymptotically stable in position; the Routh criterion "
                  "below is for the other poles.")
         char = poly.as_expr()
     positive = sp_.positive()

@@ -103,7 +103,7 @@ def newton_euler_task(ctx, spec):
             parts.append(rf"\max |u - u_{{\mathrm{{pinocchio}}}}| = {num(err, 12) if err else '0'}")
     ctx.step("Generalized forces", r",\quad ".join(parts),
              "Projection of the link moments (revolute) or forces (prismatic) on the joint axes, mapped to the "
-             "coordinates; with no gravity and the robot at rest only the tip wrench remains: u = J^T F_e.",
+             r"coordinates; with no gravity and the robot at rest only the tip wrench remains: $u = J^T F_e$.",
              joints=[b.name for b in robot.bodies])
 
 
