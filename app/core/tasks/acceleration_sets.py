@@ -20,6 +20,7 @@ import numpy as np
 import sympy as sp
 
 from .. import torque_polygon as tp
+from ..expressions import symbol
 from ..latex import mat, num, vec
 from ..steps import to_latex
 from . import task
@@ -45,7 +46,7 @@ def acceleration_polygon_task(ctx, spec):
         bias += dyn.friction
     L = lambda X: to_latex(X, robot.coordinates)
     lower, upper = (-T - bias).applyfunc(sp.expand), (T - bias).applyfunc(sp.expand)
-    ctx.step("Torque bounds as bounds on M q''", rf"{L(lower)} \le {L(dyn.M)}\,\ddot q \le {L(upper)}",
+    ctx.step(r"Torque bounds as bounds on $M \ddot q$", rf"{L(lower)} \le {L(dyn.M)}\,\ddot q \le {L(upper)}",
              "Each joint gives a band between two parallel lines (a slab in general): "
              + ("velocity terms and gravity shift it." if moving and grav else "gravity shifts it." if grav else
                 "no gravity, at rest: the bands are centred at the origin."))
@@ -64,15 +65,15 @@ def acceleration_polygon_task(ctx, spec):
         return                          # no numbers: the symbolic bounds only
     P = tp.acceleration_polytope(Mn, nn, -Tn, Tn)
     ctx.step("At the state", rf"M = {mat(Mn)},\quad n = {vec(nn)},\quad T = {vec(Tn)}",
-             "q = " + ", ".join(f"{c} = {num(v)}" for c, v in zip(robot.coordinates, q))
-             + (", q' = " + ", ".join(num(v) for v in dq) if moving else ", at rest") + ".",
+             "At $" + ", ".join(f"{to_latex(symbol(c), robot.coordinates)} = {num(v)}" for c, v in zip(robot.coordinates, q))
+             + (r",\ \dot q = " + vec(dq) + "$" if moving else "$, at rest") + ".",
              configuration={c: float(v) for c, v in zip(robot.coordinates, q)})
     ctx.answer(f"{name}_M_at", Mn)
     ctx.answer(f"{name}_n_at", nn)
     ctx.step("Reachable accelerations", r"\text{vertices: }" + r",\ ".join(vec(v) for v in P.vertices)
              + rf",\quad \max\|\ddot q\| = {num(P.max_norm)}\ \text{{at}}\ {vec(P.max_norm_vertex)}",
-             "The largest norm is at a vertex. " + ("q'' = 0 is reachable: the state can be held at constant velocity."
-                                                 if P.zero_feasible else "q'' = 0 is NOT reachable: velocity terms and "
+             "The largest norm is at a vertex. " + (r"$\ddot q = 0$ is reachable: the state can be held at constant velocity."
+                                                 if P.zero_feasible else r"$\ddot q = 0$ is NOT reachable: velocity terms and "
                                                  "gravity need more torque than available; this constant-velocity regime "
                                                  "cannot be sustained."))
     ctx.answer(f"{name}_vertices", P.vertices)

@@ -36,7 +36,7 @@ def reaction_torque_task(ctx, spec):
     tau = (lp.M * ddq + c + lp.g + lp.k + lp.friction - ext).applyfunc(sp.expand)
     joints = [b.name for b in lp.robot.bodies]
     lp.ctx.step("Reaction torque", rf"\tau = M(q)\ddot q_d + c(q,\dot q) + g(q) - \sum J^T F = {lp.L(tau)}",
-                "With every joint actuated any q'' can be imposed; q''_d = 0 is the one of least norm, "
+                r"With every joint actuated any $\ddot q$ can be imposed; $\ddot q_d = 0$ is the one of least norm, "
                 "so the torque cancels the velocity terms and the effect of the forces.", joints=joints)
     lp.answer("tau_reaction", tau)
     state = spec.get("state")
@@ -56,7 +56,7 @@ def reaction_torque_task(ctx, spec):
         lp.answer(f"J_{label}_at", ev(ctx.answers[f"J_{label}{lp.suffix}"]))
     ddq_at = ev(ddq)
     lp.ctx.step("At the state", rf"c = {lp.L(c_at)},\quad \sum J^T F = {lp.L(ext_at)},\quad \tau = {lp.L(tau_at)}",
-                f"q'' = {lp.L(ddq_at)} right after the forces act.", joints=joints)
+                rf"$\ddot q = {lp.L(ddq_at)}$ right after the forces act.", joints=joints)
     lp.answer("c_at", c_at)
     lp.answer("tau_ext_at", ext_at)
     lp.answer("tau_reaction_at", tau_at)

@@ -66,9 +66,18 @@ import sympy as sp
 from .. import contact as con
 from .. import jacobians as jac
 from ..errors import UserError
-from ..latex import mat, num, vec
+from ..latex import mat, num, sig, vec
 from . import task
 from .kinematic import data
+
+
+def _point_name(point) -> str:
+    """A point for a sentence: its name, or "the point at (x, y, z) of link2"."""
+    if isinstance(point, dict):
+        at = point.get("at")
+        where = f" at $({', '.join(str(v) for v in at)})$" if at else ""
+        return f"the point{where} of {point.get('body', 'the last link')}"
+    return str(point).replace("_", " ")
 
 
 def _names(names) -> str:
@@ -433,7 +442,7 @@ def residual_response_task(ctx, spec):
         if F.size != rows:
             raise d._fail(f"residual_response.force: expected {rows} components")
         disturbance = lambda q: jacf(q)[:rows].T @ F
-        what = f"force ${vec(F)}$ on {str(spec.get('point', 'ee')).replace('_', ' ')}"
+        what = f"force ${vec(F)}$ on {_point_name(spec.get('point', 'ee'))}"
     else:
         raise d._fail("residual_response: give a torque, a fault or a force")
     hold = spec.get("hold")
@@ -471,7 +480,7 @@ def residual_response_task(ctx, spec):
     dev = float(np.max(np.abs(resid - filt)))
     ctx.step("Momentum residual", r"r = K\left(p(t) - p(0) - \int_0^t (\tau + C^T(q,\dot q)\dot q - g(q) + r)\,ds\right)\ \Rightarrow\ \dot r = K(\tau_d - r)",
              f"Disturbance from $t = {num(t_c)}$ s: {what}.", configuration={c: float(v) for c, v in zip(robot.coordinates, q0)})
-    ctx.step("Simulated response", rf"\max_t |r(t) - r_{{filter}}(t)| = {num(dev, 10)},\quad r(\infty) = \tau_d(t_c) = {vec(steady)}",
+    ctx.step("Simulated response", rf"\max_t |r(t) - r_{{filter}}(t)| = {sig(dev, 2)},\quad r(\infty) = \tau_d(t_c) = {vec(steady)}",
              r"The residual computed from the simulated motion equals the first-order filter of the disturbance: $r(t) = (1 - e^{-K (t - t_c)})\, \tau_d$ when $\tau_d$ is constant.")
     ctx.answer(f"{name}_deviation", dev)
     ctx.answer(f"{name}_steady", steady)

@@ -79,7 +79,7 @@ def model_check_task(ctx, spec):
     ans = lambda key, value: ctx.answer(f"{name}_{key}", value)
     symmetric = all(_is_zero(M[i, j] - M[j, i]) for i in range(n) for j in range(i + 1, n))
     first = any(coords[0] in e.free_symbols for e in M)
-    ctx.step(f"Structure of {name}", rf"{name}(q) = {L(M)}",
+    ctx.step(f"Structure of ${L(sp.Symbol(name))}$", rf"{name}(q) = {L(M)}",
              ("Symmetric" if symmetric else "Not symmetric: not an inertia matrix") + "; "
              + (f"it depends on {coords[0]}, the coordinate of the first joint: a robot's inertia matrix cannot, "
                 "since the choice of the base frame (and of the zero of q1) is arbitrary." if first
@@ -115,7 +115,7 @@ def model_check_task(ctx, spec):
     ctx.step("Leading minors of each block", r",\quad ".join(rf"\Delta_{{{k + 1}}} = {L(m)}" for k, m in enumerate(minors)),
              f"Blocks {', '.join(str([i + 1 for i in g]) for g in blocks)}: M > 0 for every q iff each of these stays positive (Sylvester).")
     ctx.step("Their smallest values over q", r",\quad ".join(rf"\min_q \Delta_{{{k + 1}}} = {L(m)}" for k, m in enumerate(minima)),
-             "A function of one cosine (or sine) reaches its extremes at cos = +-1 (or at the vertex); a square reaches 0.")
+             r"A function of one cosine (or sine) reaches its extremes at $\cos = \pm 1$ (or at the vertex); a square reaches 0.")
     ctx.step("Conditions on the coefficients", r",\quad ".join(f"{L(c)} > 0" for c in conditions),
              "Necessary and sufficient for a positive definite M at every configuration (the diagonal entries too, necessarily).")
     ans("blocks", [[i + 1 for i in g] for g in blocks])
@@ -139,7 +139,7 @@ def model_check_task(ctx, spec):
             ans("positive_definite", decided)
             ctx.step("Verdict", rf"\det {name} = {L(det)}" + (rf",\ \max_q \det {name} = {L(det_max)}" if nowhere else ""),
                      "Positive definite for every q with the stated positive coefficients." if decided else
-                     ("det M <= 0 at every configuration: M is positive definite nowhere, not the inertia matrix of a robot."
+                     (r"$\det M \le 0$ at every configuration: $M$ is positive definite nowhere, not the inertia matrix of a robot."
                       if nowhere else "Not positive definite for every q: not the inertia matrix of a robot."))
     _forces(ctx, spec, M, coords, name, L)
 
@@ -157,7 +157,7 @@ def _forces(ctx, spec, M, coords, name, L):
         ok = [i + 1 for i in range(n) if all(_is_zero(g[j]) for j in range(n) if j != i)]
         ctx.step("One input at an equilibrium", rf"g(q) = S u_a \Rightarrow" + (
                  r",\ ".join(rf"\ u_a\ \text{{on}}\ {L(coords[i - 1])} = {L(g[i - 1])}" for i in ok) if ok else r"\ \text{none}"),
-                 "At rest (q'' = q' = 0) the input must balance gravity, so every unactuated row of g must vanish.")
+                 r"At rest ($\ddot q = \dot q = 0$) the input must balance gravity, so every unactuated row of $g$ must vanish.")
         ctx.answer(f"{name}_equilibrium_inputs", ok)
         if len(ok) == 1:
             ctx.answer(f"{name}_u_equilibrium", g[ok[0] - 1])

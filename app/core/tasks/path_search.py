@@ -119,7 +119,7 @@ def cell_decomposition_task(ctx, spec):
     ctx.step("Channels", r",\ ".join(r"\{" + ", ".join(map(str, c)) + r"\}" for c in chans),
              f"{len(chans)} channels (paths without cycles) from cell {s.number} (start) to cell {g.number} (goal).")
     ctx.step("Shortest channel", rf"\{{{', '.join(map(str, path))}\}},\quad L = {sp.latex(sp.nsimplify(length, [sp.sqrt(2), sp.sqrt(5), sp.sqrt(10)]))}",
-             f"Dijkstra on the weighted graph; A* with the Euclidean distance to the goal cell's center (admissible) "
+             f"Dijkstra on the weighted graph; A-star with the Euclidean distance to the goal cell's center (admissible) "
              f"finds the same length expanding {a_exp} nodes instead of {expanded}.",
              path=[[centers[k][0], centers[k][1], 0.0] for k in path])
     for key, value in (("start_cell", s.number), ("goal_cell", g.number),

@@ -127,8 +127,8 @@ def _force_terms(lp: _Loop, items, where: str, sign: int):
         p, J = lp.point_jacobian(item["point"], f"{where}[{i}].point")
         F = lp.vector(item["force"], J.rows, f"{where}[{i}].force")
         tau = (J.T * F).applyfunc(sp.expand)
-        lp.ctx.step(f"Force {label}", rf"p_{{{label}}} = {lp.L(p)},\quad J_{{{label}}} = {lp.L(J)},\quad J^T F = {lp.L(tau)}",
-                    "Its generalized force, from the virtual work F^T dp = (J^T F)^T dq.")
+        lp.ctx.step(f"Force ${lp.L(sp.Symbol(label))}$", rf"p_{{{label}}} = {lp.L(p)},\quad J_{{{label}}} = {lp.L(J)},\quad J^T F = {lp.L(tau)}",
+                    r"Its generalized force, from the virtual work $F^T \delta p = (J^T F)^T \delta q$.")
         lp.answer(f"p_{label}", p)
         lp.answer(f"J_{label}", J)
         lp.answer(f"tau_{label}", tau)
@@ -154,7 +154,7 @@ def _shaping(lp: _Loop, items):
             zone = (symbol(c), lp.expr(lo, "where"), lp.expr(hi, "where"))
         grad = sp.Matrix([sp.diff(P, s) for s in lp.q]).applyfunc(sp.factor)
         span = (rf",\quad {lp.L(zone[1])} < {lp.L(zone[0])} < {lp.L(zone[2])}\ (0\ \text{{elsewhere}})" if zone else "")
-        lp.ctx.step(f"Artificial potential {name}", rf"{name} = {lp.L(P)},\quad \nabla {name} = {lp.L(grad)}{span}",
+        lp.ctx.step(f"Artificial potential ${lp.L(sp.Symbol(name))}$", rf"{name} = {lp.L(P)},\quad \nabla {name} = {lp.L(grad)}{span}",
                     "It grows without bound at the limit and vanishes, with its gradient, at the edge of its zone.")
         lp.answer(name, P)
         lp.answer(f"d{name}", grad if lp.n > 1 else grad[0])
@@ -259,7 +259,7 @@ def _equilibria(lp: _Loop, base: sp.Matrix, pieces, domain):
             x = lp.q[0]
             lp.ctx.step("Equilibria in a zone", rf"{where}:\ {lp.L(eq[0])} = 0 \Rightarrow "
                         + (", ".join(f"{lp.L(x)} = {lp.L(s)}" for s in sols) if sols else r"\text{no solution}"),
-                        f"Active potentials: {', '.join(active) or 'none'}.")
+                        "Active potentials: " + (", ".join(f"${lp.L(sp.Symbol(a))}$" for a in active) or "none") + ".")
             rows += [[s] for s in sols if [s] not in rows]
             continue
         found, part = _solve_all(lp, eq.applyfunc(sp.expand))
@@ -418,10 +418,10 @@ def _candidate(lp: _Loop, cand, F, F_rest, base, pieces, rows):
                 joints=[b.name for b in lp.robot.bodies])
     lp.ctx.step("Its derivative", rf"\dot V = \dot q^T (F + \nabla P) = {lp.L(V_dot)}"
                 + (rf" = -\dot q^T D \dot q,\ D = {lp.L(D)}" if D is not None else ""),
-                "M' - 2C is skew-symmetric, so T' = q'^T F. " + f"D is {kind}.")
-    lasalle = ("V' = 0 only where q' = 0; staying there needs q'' = 0, i.e. F(q, 0) = 0: the largest invariant set is "
-               "made of the closed-loop equilibria (LaSalle)." if kind == "positive definite" else
-               "V' vanishes on more than q' = 0: the invariant set needs a closer look at the closed loop.")
+                r"$\dot M - 2C$ is skew-symmetric, so $\dot T = \dot q^T F$. " + f"$D$ is {kind}.")
+    lasalle = (r"$\dot V = 0$ only where $\dot q = 0$; staying there needs $\ddot q = 0$, i.e. $F(q, 0) = 0$: the largest "
+               "invariant set is made of the closed-loop equilibria (LaSalle)." if kind == "positive definite" else
+               r"$\dot V$ vanishes on more than $\dot q = 0$: the invariant set needs a closer look at the closed loop.")
     lp.ctx.step("LaSalle", rf"\dot V = 0 \Rightarrow \dot q = 0 \Rightarrow F(q, 0) = {lp.L(F_rest)} = 0"
                 if kind == "positive definite" else r"\dot V \le 0", lasalle)
     lp.answer("V", T + P)
@@ -437,7 +437,7 @@ def _at(lp: _Loop, raw, F_rest):
         raise lp.fail("at: expected {coordinate: value}")
     sub = {symbol(c): lp.expr(v, f"at.{c}") for c, v in raw.items()}
     Fa = F_rest.xreplace(sub).applyfunc(sp.expand)
-    lp.ctx.step("Forces at rest there", rf"F = {lp.L(Fa)}", "With q' = 0 only these forces accelerate the robot: M q'' = F.")
+    lp.ctx.step("Forces at rest there", rf"F = {lp.L(Fa)}", r"With $\dot q = 0$ only these forces accelerate the robot: $M \ddot q = F$.")
     lp.answer("F_at", Fa)
     values = lp.numbers()
     Mn = lp.M.xreplace(sub).xreplace(values)
@@ -509,7 +509,7 @@ def gravity_gradient_symbolic_task(ctx, spec):
         raise lp.fail(str(exc)) from None
     S = (A.T * A).applyfunc(sp.factor)
     lp.ctx.step("Gradient of gravity", rf"A(q) = \frac{{\partial g}}{{\partial q}} = {lp.L(A)}",
-                "Symmetric (the Hessian of the potential energy) and not definite in sign: its norm is sqrt(lambda_max(A^T A)).",
+                r"Symmetric (the Hessian of the potential energy) and not definite in sign: its norm is $\sqrt{\lambda_{\max}(A^T A)}$.",
                 joints=[b.name for b in lp.robot.bodies])
     lp.ctx.step("Its square", rf"A^T A = {lp.L(S)}", "Positive semidefinite: real nonnegative eigenvalues.")
     lp.answer("A", A)
@@ -517,10 +517,10 @@ def gravity_gradient_symbolic_task(ctx, spec):
     if S.shape == (2, 2):
         lam = lambda_max_2x2(S)
         lp.ctx.step("Largest eigenvalue", rf"\lambda_{{max}}(A^T A) = \frac{{a_1 + a_3 + \sqrt{{(a_1 - a_3)^2 + 4 a_2^2}}}}{{2}}",
-                    "From det(lambda I - A^T A) = lambda^2 - (a1 + a3) lambda + a1 a3 - a2^2; it grows with a1, a3 and |a2|.")
+                    r"From $\det(\lambda I - A^T A) = \lambda^2 - (a_1 + a_3) \lambda + a_1 a_3 - a_2^2$; it grows with $a_1$, $a_3$ and $|a_2|$.")
         lp.answer("lambda_max", lam)
     lp.ctx.step("A bound over the workspace", rf"A^T A \le {lp.L(B)}\ \text{{entrywise}},\quad \alpha = {lp.L(alpha)}",
-                "|sin|, |cos| <= 1 and the coordinates at the end of their range bound each entry; alpha >= ||A(q)|| everywhere, "
-                "so K_P,min > alpha makes PD with the constant compensation g(q_d) globally asymptotically stable.")
+                r"$|\sin|, |\cos| \le 1$ and the coordinates at the end of their range bound each entry; $\alpha \ge \|A(q)\|$ "
+                r"everywhere, so $K_{P,\min} > \alpha$ makes PD with the constant compensation $g(q_d)$ globally asymptotically stable.")
     lp.answer("AtA_bounds", B)
     lp.answer("alpha", alpha)
