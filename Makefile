@@ -21,7 +21,7 @@ run: setup
 	$(BIN)/python -m app
 
 test: setup browser
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q --durations=15
 
 bench: setup
 	$(BIN)/python -m benchmarks
