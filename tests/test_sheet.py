@@ -62,8 +62,8 @@ def test_same_seed_same_sheet(sheet):
     assert other.entries[0].changes != sheet.entries[0].changes
 
 
-def test_pdfs_have_one_exercise_per_page(sheet, tmp_path):
-    paths = write_sheet(sheet, tmp_path)
+def test_pdfs_have_one_exercise_per_page(sheet, tmp_path, browser):
+    paths = write_sheet(sheet, tmp_path, browser=browser)
     names = sorted(p.name for p in paths)
     assert names == ["exam.html", "exam.pdf", "solutions.html", "solutions.pdf"]
     assert pdf_page_count(tmp_path / "exam.pdf") == len(EXERCISES)

@@ -238,8 +238,9 @@ def pdf_page_count(path: str | Path) -> int:
     return len(re.findall(rb"/Type\s*/Page(?![s\w])", data))
 
 
-def write_sheet(sheet, out_dir: str | Path, pdf: bool = True) -> List[Path]:
-    """exam.html, solutions.html (and their PDFs) in ``out_dir``; returns the paths written."""
+def write_sheet(sheet, out_dir: str | Path, pdf: bool = True, browser=None) -> List[Path]:
+    """exam.html, solutions.html (and their PDFs, printed by ``browser`` or a Chromium of its own)
+    in ``out_dir``; returns the paths written."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     docs = {"exam": exam_html(sheet), "solutions": solutions_html(sheet)}
@@ -248,11 +249,12 @@ def write_sheet(sheet, out_dir: str | Path, pdf: bool = True) -> List[Path]:
         p = out_dir / f"{name}.html"
         p.write_text(doc, encoding="utf-8")
         paths.append(p)
-    if pdf:
+    if pdf and browser is not None:
+        paths += [print_pdf(doc, out_dir / f"{name}.pdf", browser) for name, doc in docs.items()]
+    elif pdf:
         from app.viewer.screenshot import Browser
-        with Browser() as browser:
-            for name, doc in docs.items():
-                paths.append(print_pdf(doc, out_dir / f"{name}.pdf", browser))
+        with Browser() as own:
+            paths += [print_pdf(doc, out_dir / f"{name}.pdf", own) for name, doc in docs.items()]
     return paths
 
 

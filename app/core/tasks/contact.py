@@ -480,7 +480,8 @@ def residual_response_task(ctx, spec):
     dev = float(np.max(np.abs(resid - filt)))
     ctx.step("Momentum residual", r"r = K\left(p(t) - p(0) - \int_0^t (\tau + C^T(q,\dot q)\dot q - g(q) + r)\,ds\right)\ \Rightarrow\ \dot r = K(\tau_d - r)",
              f"Disturbance from $t = {num(t_c)}$ s: {what}.", configuration={c: float(v) for c, v in zip(robot.coordinates, q0)})
-    ctx.step("Simulated response", rf"\max_t |r(t) - r_{{filter}}(t)| = {sig(dev, 2)},\quad r(\infty) = \tau_d(t_c) = {vec(steady)}",
+    deviation = f"= {sig(dev, 2)}" if dev >= 1e-8 else "< 10^{-8}"      # below that it is integration round-off
+    ctx.step("Simulated response", rf"\max_t |r(t) - r_{{filter}}(t)| {deviation},\quad r(\infty) = \tau_d(t_c) = {vec(steady)}",
              r"The residual computed from the simulated motion equals the first-order filter of the disturbance: $r(t) = (1 - e^{-K (t - t_c)})\, \tau_d$ when $\tau_d$ is constant.")
     ctx.answer(f"{name}_deviation", dev)
     ctx.answer(f"{name}_steady", steady)
