@@ -1,5 +1,6 @@
 """Robots nobody wrote by hand: random serial chains (planar and spatial, revolute and prismatic
-joints, absolute-angle coordinates, off-axis CoMs, numeric and symbolic springs, friction) go
+joints, absolute-angle coordinates, off-axis CoMs, numeric, symbolic, nonlinear and point springs,
+dampers, friction) go
 through the same engine as the shipped ones and must satisfy the same identities."""
 import random
 
@@ -56,6 +57,11 @@ def random_robot(seed: int) -> dict:
     if rng.random() < 0.3:
         params["fv"] = {"value": 0.4, "kind": "friction"}
         data["friction"] = {"viscous": {coords[0]: "fv"}}
+    if rng.random() < 0.3:       # a damper between the first and last coordinates
+        data["dampers"] = [{"coefficient": rng.choice([0.7, "m1"]), "expr": f"{coords[-1]} - {coords[0]}"}]
+    if rng.random() < 0.3:       # a hardening spring and a spring between a point of the last body and the base
+        data.setdefault("springs", []).append({"expr": coords[0], "force": "3*delta + m1*delta**3"})
+        data["springs"].append({"stiffness": 5, "between": [[f"l{n}", ["a1", 0, 0]], ["base", [0, 0.3, 0.2]]]})
     return data
 
 

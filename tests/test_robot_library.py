@@ -98,7 +98,30 @@ BROKEN = {
     "missing coordinate": (("q: q2,", "q: q3,"), ["bodies[1] (link2).joint.q", "unknown name 'q3'"]),
     "import attempt": (("mass: m2", "mass: __import__('os').system('true')"), ["bodies[1] (link2).mass", "__import__"]),
     "yaml syntax": (("bodies:", "bodies: [unclosed"), ["not valid YAML"]),
+    # issue 15: bodies' physics checked at the default values, hostile expressions refused at once
+    "negative body mass": (("mass: m2", "mass: -1"), ["bodies[1] (link2).mass", "must not be negative", "-1"]),
+    "negative mass expression": (("mass: m2", "mass: -(m2)"), ["bodies[1] (link2).mass", "must not be negative"]),
+    "indefinite inertia": (("com: [l1/2, 0, 0]", "com: [l1/2, 0, 0]\n    inertia: [[1, 2, 0], [2, 1, 0], [0, 0, 1]]"),
+                           ["bodies[0] (link1).inertia", "positive semi-definite"]),
+    "negative friction": (("gravity: [0, -g0, 0]", "gravity: [0, -g0, 0]\nfriction: {viscous: {q1: -0.5}}"),
+                          ["friction.viscous.q1", "must not be negative"]),
+    "full-width name in an expression": (("mass: m2", "mass: \uff4d2"), ["bodies[1] (link2).mass", "non-ASCII"]),
+    "full-width parameter name": (("m1: {value: 2,", "\uff4d1: {value: 2,"), ["ASCII identifier"]),
+    "revolute joint variable sin(q1)": (("q: q1}", "q: \"sin(q1)\"}"), ["bodies[0] (link1).joint.q", "integer multiples"]),
+    "prismatic joint variable sin(q2)": (("q: q2,", "q: \"sin(q2)\","), ["bodies[1] (link2).joint.q", "polynomial"]),
+    "power tower": (("mass: m2", "mass: ((((9**64)**64)**64)**64)"), ["bodies[1] (link2).mass", "too large"]),
+    "nested symbolic power": (("mass: m2", "mass: ((m1+m2)**64+l1)**64"), ["bodies[1] (link2).mass", "too large"]),
+    "complex mass": (("mass: m2", "mass: sqrt(-1)"), ["bodies[1] (link2).mass", "real, finite"]),
+    "alias bomb": (("name: broken\n", "BOMB"), ["not valid YAML", "aliases"]),
+    "damper on a nonlinear stretch": (("gravity: [0, -g0, 0]", "gravity: [0, -g0, 0]\ndampers: [{coefficient: 1, expr: q1**2}]"),
+                                      ["dampers[0].expr", "affine"]),
+    "negative damper": (("gravity: [0, -g0, 0]", "gravity: [0, -g0, 0]\ndampers: [{coefficient: -1, expr: q2 - q1}]"),
+                        ["dampers[0].coefficient", "must not be negative"]),
+    "preloaded nonlinear force": (("gravity: [0, -g0, 0]", "gravity: [0, -g0, 0]\nsprings: [{expr: q2, force: 1 + delta}]"),
+                                  ["springs[0].force", "vanish at delta = 0"]),
 }
+BOMB = "a: &a [x, x, x, x]\n" + "".join(f"{chr(98 + i)}: &{chr(98 + i)} [*{chr(97 + i)}, *{chr(97 + i)}, *{chr(97 + i)}]\n"
+                                         for i in range(10))
 
 
 def test_the_template_is_valid(tmp_path):
@@ -112,7 +135,8 @@ def test_malformed_file_is_reported(tmp_path, case):
     (old, new), fragments = BROKEN[case]
     assert old in GOOD
     path = tmp_path / f"{case.replace(' ', '_')}.yaml"
-    path.write_text(GOOD.replace(old, new, 1))
+    text = GOOD.replace(old, new if new != "BOMB" else BOMB + old, 1)
+    path.write_text(text, encoding="utf-8")
     with pytest.raises(RobotFileError) as err:
         load_robot(str(path))
     message = str(err.value)
@@ -126,3 +150,14 @@ def test_coordinate_that_moves_nothing_is_reported(tmp_path):
     path.write_text(GOOD.replace("coordinates: [q1, q2]", "coordinates: [q1, q2, q3]"))
     with pytest.raises(RobotFileError, match=r"coordinates: coordinate\(s\) \['q3'\] move no joint"):
         load_robot(str(path))
+
+
+def test_not_a_robot_file_is_refused_in_one_line(tmp_path):
+    for target, fragment in ((tmp_path, "not a regular file"), ("/dev/zero", "not a regular file"), ("", "empty robot name")):
+        with pytest.raises(RobotFileError, match=fragment) as err:
+            load_robot(target)
+        assert "\n" not in str(err.value)
+    big = tmp_path / "big.yaml"
+    big.write_text("notes: " + "x" * 1_100_000)
+    with pytest.raises(RobotFileError, match="larger than"):
+        load_robot(big)

@@ -84,7 +84,7 @@ def run(args) -> int:
     if robot.springs:
         print("\nspring terms k(q) =", file=out)
         print(sp.pretty(dyn.spring, use_unicode=True), file=out)
-    if robot.viscous or robot.coulomb:
+    if robot.has_friction:
         print("\nfriction =", file=out)
         print(sp.pretty(dyn.friction, use_unicode=True), file=out)
     par = dyn.parametrization

@@ -27,8 +27,9 @@ import numpy as np
 import sympy as sp
 
 from .kinematics import Kinematics
+from .expressions import symbol
 from .mathtext import symbols_text
-from .robot import KNOWN_KINDS, RobotModel
+from .robot import DELTA, KNOWN_KINDS, RobotModel
 from .steps import Step, shorthand_is_clear, to_latex
 from .trig import TrigPoly
 
@@ -464,24 +465,10 @@ class _Deriver:
                   r"Collect $T = \frac{1}{2} \dot q^T M(q) \dot q$; $M$ is symmetric and positive definite.",
                   bodies=[b.name for b in robot.bodies])
 
-        # springs
-        Us_tp = TrigPoly()
-        for spring in robot.springs:
-            if spring.expr is not None:
-                Ue = _tp(spring.stiffness * (spring.expr - spring.rest) ** 2 / 2)
-            else:
-                (ba, pa), (bb, pb) = spring.points
-                d = self.kin.point_position(ba, pa) - self.kin.point_position(bb, pb)
-                Ue = _tp(spring.stiffness * (d.T * d)[0] / 2)
-            potential[spring.name] = self.X(Ue)
-            Us_tp = Us_tp + Ue
-            self.step(f"Elastic energy of {spring.name}", rf"U_{{{spring.name}}} = {self.L(potential[spring.name])}",
-                      "Potential energy stored in the spring.")
+        k_tp, spring_vec = self._springs(potential)
         self.progress(0.6, "gravity and springs")
         g_tp = [U_tp.diff(qk) for qk in self.q]
-        k_tp = [Us_tp.diff(qk) for qk in self.q]
         g = sp.Matrix([self.X(e) for e in g_tp])
-        spring_vec = sp.Matrix([self.X(e) for e in k_tp])
         if any(e != 0 for e in robot.gravity):
             self.step("Potential energy", rf"U(q) = {self.L(self.X(U_tp))}",
                       r"Gravity: $U_i = -m_i g^T p_{c,i}$ for each link.", bodies=[b.name for b in robot.bodies])
@@ -519,20 +506,19 @@ class _Deriver:
                   r"Built from the Christoffel symbols, so that $\dot M - 2C$ is skew-symmetric.")
 
         # friction
-        fr = [sp.Integer(0)] * n
-        for cname, coeff in robot.viscous.items():
-            k = robot.coordinates.index(cname)
-            fr[k] += coeff * dq[k]
+        fr = robot.viscous_forces()
         for cname, coeff in robot.coulomb.items():
             k = robot.coordinates.index(cname)
             fr[k] += coeff * sp.sign(dq[k])
         friction = sp.Matrix(fr)
-        if robot.viscous or robot.coulomb:
-            self.step("Friction", rf"\tau_f = {self.L(friction)}", "Viscous (and Coulomb) friction at the joints.")
+        if robot.has_friction:
+            self.step("Friction", rf"\tau_f = {self.L(friction)}", "Viscous (and Coulomb) friction at the joints"
+                      + (r"; a damper $d$ on a stretch $\delta$ adds $\left(\frac{\partial \delta}{\partial q}\right)^T "
+                         r"d\,\dot\delta$." if robot.dampers else "."))
         tau = sp.Matrix(robot.coordinates and [sp.Symbol("tau_" + str(i + 1)) for i in range(n)])
         lhs = M * sp.Matrix(self.ddq) + c + g + spring_vec + friction
         self.step("Equations of motion", rf"M(q)\ddot q + c(q,\dot q) + g(q)"
-                  + (r" + k(q)" if robot.springs else "") + (r" + \tau_f" if robot.viscous or robot.coulomb else "")
+                  + (r" + k(q)" if robot.springs else "") + (r" + \tau_f" if robot.has_friction else "")
                   + rf" = \tau,\quad {self.L(lhs)} = {self.L(sp.Matrix(self._tau_names()))}",
                   "The Euler-Lagrange equations, one row per coordinate.")
 
@@ -554,6 +540,34 @@ class _Deriver:
             com_positions=positions, com_velocities=velocities, angular_velocities=omegas,
             kinetic=kinetic, potential=potential, M=M, christoffel=christoffel, C=C, c=c, g=g,
             spring=spring_vec, friction=friction, parametrization=param, steps=self.steps)
+
+    def _springs(self, potential: Dict[str, sp.Expr]):
+        """Elastic energy of each spring (a step each) and the spring forces k(q) = (dU_e/dq)^T, as
+        canonical polynomials (for the regressor) and as shown: a nonlinear spring's force keeps its
+        law, -K (theta - q) - K3 (theta - q)^3, rather than the expanded polynomial."""
+        linear_tp, all_tp = TrigPoly(), TrigPoly()
+        compact = [sp.Integer(0)] * self.n
+        for spring in self.robot.springs:
+            if spring.expr is not None:
+                Ue = _tp(spring.potential())
+            else:
+                (ba, pa), (bb, pb) = spring.points
+                d = self.kin.point_position(ba, pa) - self.kin.point_position(bb, pb)
+                Ue = _tp(spring.stiffness * (d.T * d)[0] / 2)
+            all_tp = all_tp + Ue
+            if spring.is_linear:
+                linear_tp = linear_tp + Ue
+                potential[spring.name] = self.X(Ue)
+            else:
+                stretch = spring.expr - spring.rest
+                potential[spring.name] = spring.potential()
+                force = spring.force.xreplace({symbol(DELTA): stretch})
+                compact = [c + sp.diff(stretch, qk) * force for c, qk in zip(compact, self.q)]
+            self.step(f"Elastic energy of {spring.name}", rf"U_{{{spring.name}}} = {self.L(potential[spring.name])}",
+                      "Potential energy stored in the spring.")
+        k_tp = [all_tp.diff(qk) for qk in self.q]
+        shown = sp.Matrix([self.X(linear_tp.diff(qk)) + c for qk, c in zip(self.q, compact)])
+        return k_tp, shown
 
     def _tau_names(self):
         act = self.robot.actuated

@@ -23,7 +23,7 @@ import yaml
 from .dynamics import Dynamics, derive
 from .errors import UserError
 from .expressions import ExpressionError, parse_expression
-from .robot import RobotModel, load_robot, parse_robot, robot_path
+from .robot import ParameterError, RobotModel, load_robot, parse_robot, robot_path
 from .steps import Step
 
 EXERCISES_DIR = Path(__file__).resolve().parent.parent / "exercises"
@@ -275,25 +275,20 @@ def expected_path(exercise: Exercise) -> Path:
 
 
 # ---------------------------------------------------------------------- solving
-_NON_NEGATIVE = ("mass", "inertia", "stiffness", "friction")
-
-
 def _check_variant(exercise: Exercise, robot: RobotModel, given: Mapping[str, Any]) -> None:
     """Changed numbers must name a given value of the exercise or a robot parameter, and robot
-    parameters must be finite numbers (non-negative for masses, inertias, stiffnesses, friction)."""
-    import math
+    parameters must pass the robot's parameter rule (``RobotModel.check_parameter_value``)."""
     for name, value in given.items():
         if name not in exercise.given and name not in robot.parameters:
             known = sorted(set(exercise.given) | set(robot.parameters))
             raise ExerciseError(f"{exercise.id}: '{name}' is neither a given value of the exercise nor a "
                                 f"parameter of {robot.name} (known: {', '.join(known)})")
-        param = robot.parameters.get(name)
-        if param is None:
+        if name not in robot.parameters:
             continue
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise ExerciseError(f"{name}: expected a finite number, got {value!r}")
-        if param.kind in _NON_NEGATIVE and value < 0:
-            raise ExerciseError(f"{name}: a {param.kind} must not be negative (got {value:g})")
+        try:
+            robot.check_parameter_value(name, value)
+        except ParameterError as exc:
+            raise ExerciseError(str(exc)) from None
 
 
 def solve(exercise: Exercise, given: Optional[Mapping[str, Any]] = None,

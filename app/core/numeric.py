@@ -21,9 +21,9 @@ import numpy as np
 import sympy as sp
 
 from .dynamics import Dynamics, derive
-from .errors import UserError
 from .kinematics import Kinematics
-from .robot import RobotModel
+from .expressions import symbol
+from .robot import DELTA, ParameterError, RobotModel  # noqa: F401 (ParameterError re-exported)
 
 _LAMBDA_CACHE: Dict[Tuple[str, str], object] = {}
 _LAMBDA_LOCK = threading.Lock()
@@ -40,10 +40,6 @@ def compiled_function(robot: RobotModel, tag: str, args, expr):
         with _LAMBDA_LOCK:
             _LAMBDA_CACHE[key] = fn
     return fn
-
-
-class ParameterError(UserError):
-    """A parameter value is not acceptable (negative mass, not a number, ...)."""
 
 
 class NumericModel:
@@ -64,18 +60,9 @@ class NumericModel:
     def set_parameters(self, params: Mapping[str, float]) -> None:
         values = dict(self.robot.parameter_values())
         for name, value in params.items():
-            if name not in values:
-                raise ParameterError(f"unknown parameter '{name}'")
-            try:
-                value = float(value)
-            except (TypeError, ValueError):
-                raise ParameterError(f"{name}: expected a number, got {value!r}") from None
-            if not np.isfinite(value):
-                raise ParameterError(f"{name}: expected a finite number, got {value!r}")
-            kind = self.robot.parameters[name].kind
-            if kind in ("mass", "inertia", "stiffness", "friction") and value < 0:
-                raise ParameterError(f"{name}: a {kind} must not be negative (got {value:g})")
-            values[name] = value
+            if isinstance(value, np.number):
+                value = value.item()
+            values[name] = self.robot.check_parameter_value(name, value)
         self.values = values
         self.p = np.array([values[name] for name in self.robot.parameters], dtype=float)
 
@@ -235,6 +222,7 @@ class PinocchioTwin:
             joint_exprs.append(sp.Symbol(cname, real=True))
         self.model = model
         self.data = model.createData()
+        self._joint_of, self._frame_in_joint = joint_of, frame_in_joint
         theta = sp.Matrix(joint_exprs).subs(subs)
         E = theta.jacobian(sp.Matrix(q))
         dq = robot.dq
@@ -243,6 +231,71 @@ class PinocchioTwin:
         self._E = sp.lambdify([q], E, "numpy")
         self._Edq = sp.lambdify([q, dq], Edot_dq, "numpy")
         self.nj = len(joint_exprs)
+
+    # ------------------------------------------------------------------ springs, dampers, friction
+    @cached_property
+    def _stretch_springs(self):
+        """(stretch(q), its gradient(q), elastic force law f(delta)) of each spring given by ``expr``."""
+        q, delta, out = self.robot.q, symbol(DELTA), []
+        for spring in self.robot.springs:
+            if spring.expr is None:
+                continue
+            stretch = (spring.expr - spring.rest).subs(self._subs)
+            law = (spring.stiffness * delta if spring.is_linear else spring.force).subs(self._subs)
+            out.append((sp.lambdify([q], stretch, "numpy"),
+                        sp.lambdify([q], [sp.diff(stretch, qk) for qk in q], "numpy"),
+                        sp.lambdify([delta], law, "numpy")))
+        return out
+
+    def _point(self, body: Optional[str], local: sp.Matrix) -> Tuple[np.ndarray, np.ndarray]:
+        """World position and linear Jacobian (3 x joints) of a point fixed in a body, from pinocchio
+        (after forwardKinematics and computeJointJacobians)."""
+        pin = self.pin
+        local = np.array([float(e.subs(self._subs)) for e in local])
+        if body is None:
+            return local, np.zeros((3, self.model.nv))
+        jid = self._joint_of[body]
+        placement = self.data.oMi[jid] * self._frame_in_joint[body]
+        p = placement.act(local)
+        J6 = pin.getJointJacobian(self.model, self.data, jid, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+        r = p - self.data.oMi[jid].translation
+        skew = np.array([[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]])
+        return p, J6[:3] - skew @ J6[3:]
+
+    def spring_forces(self, q) -> np.ndarray:
+        """Elastic generalized forces from the robot file's springs, computed without the symbolic
+        model: f(delta) mapped by the stretch's gradient, and point springs k (p_a - p_b) mapped by
+        pinocchio's point Jacobians."""
+        q = np.asarray(q, dtype=float)
+        tau = np.zeros(self.robot.n)
+        for stretch, gradient, law in self._stretch_springs:
+            tau += np.asarray(gradient(q), dtype=float).reshape(-1) * float(law(float(stretch(q))))
+        point_springs = [s for s in self.robot.springs if s.expr is None]
+        if point_springs:
+            pin = self.pin
+            th = np.asarray(self._theta(q), dtype=float).reshape(-1)
+            pin.forwardKinematics(self.model, self.data, th)
+            pin.computeJointJacobians(self.model, self.data, th)
+            E = np.asarray(self._E(q), dtype=float).reshape(self.nj, -1)
+            for spring in point_springs:
+                (ba, la), (bb, lb) = spring.points
+                (pa, Ja), (pb, Jb) = self._point(ba, la), self._point(bb, lb)
+                k = float(spring.stiffness.subs(self._subs))
+                tau += E.T @ ((Ja - Jb).T @ (k * (pa - pb)))
+        return tau
+
+    def friction_forces(self, dq) -> np.ndarray:
+        """Viscous and Coulomb friction and damper forces from the robot file's coefficients."""
+        robot, dq = self.robot, np.asarray(dq, dtype=float)
+        tau = np.zeros(robot.n)
+        for table, law in ((robot.viscous, lambda v: v), (robot.coulomb, np.sign)):
+            for cname, coeff in table.items():
+                k = robot.coordinates.index(cname)
+                tau[k] += float(coeff.subs(self._subs)) * law(dq[k])
+        for damper in robot.dampers:
+            a = np.array([float(sp.diff(damper.expr, qk).subs(self._subs)) for qk in robot.q])
+            tau += float(damper.coefficient.subs(self._subs)) * a * (a @ dq)
+        return tau
 
     def _se3(self, tf):
         R = np.array(tf.R.subs(self._subs), dtype=float)
@@ -311,17 +364,27 @@ def random_state(robot: RobotModel, rng: np.random.Generator) -> Tuple[np.ndarra
 
 def cross_check(robot: RobotModel, params: Optional[Mapping[str, float]] = None, states: int = 50,
                 seed: int = 0, tolerance: float = 1e-9, dynamics: Optional[Dynamics] = None) -> CrossCheck:
-    """Compare symbolic M, C q', g with pinocchio at random states (relative to the largest entry).
+    """Compare symbolic M, C q', g with pinocchio at random states (relative to the largest entry),
+    and the spring and friction terms with their direct evaluation from the robot file.
     ``dynamics``: the robot's model when the caller has derived it already (else derived here)."""
     num = NumericModel(robot, params, dynamics)
     twin = PinocchioTwin(robot, num.values)
     rng = np.random.default_rng(seed)
     worst = {"M": 0.0, "Cdq": 0.0, "g": 0.0}
+    if robot.springs:
+        worst["spring"] = 0.0
+    if robot.has_friction:
+        worst["friction"] = 0.0
     for _ in range(states):
         q, dq = random_state(robot, rng)
         Mp, cp, gp = twin.terms(q, dq)
         Ms, cs, gs = num.M(q), num.c(q, dq), num.g(q)
-        for key, a, b in (("M", Ms, Mp), ("Cdq", cs, cp), ("g", gs, gp)):
+        pairs = [("M", Ms, Mp), ("Cdq", cs, cp), ("g", gs, gp)]
+        if robot.springs:
+            pairs.append(("spring", num.spring(q), twin.spring_forces(q)))
+        if robot.has_friction:
+            pairs.append(("friction", num.friction(dq), twin.friction_forces(dq)))
+        for key, a, b in pairs:
             scale = max(1.0, float(np.max(np.abs(b))) if b.size else 1.0)
             err = float(np.max(np.abs(a - b))) / scale if a.size else 0.0
             worst[key] = max(worst[key], err)

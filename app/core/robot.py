@@ -1,209 +1,42 @@
-"""Robot descriptions: loading and validating robot files (YAML) into an immutable ``RobotModel``.
+"""Robot files: loading and validating robot files (YAML) into an immutable ``RobotModel``.
 
 A robot file describes a tree of rigid bodies connected by revolute, prismatic or fixed joints,
 the generalized coordinates and how joint variables depend on them, symbolic parameters with
-default values, gravity, springs, motors of elastic joints, friction, actuation, limits and how to
-draw the robot. The format is documented in docs/robot-format.md.
+default values, gravity, springs, dampers, motors of elastic joints, friction, actuation, limits
+and how to draw the robot. The format is documented in docs/robot-format.md. The data model and
+the rule for parameter values live in app.core.robot_model and are re-exported here.
 
 >>> robot = load_robot("rp_2004_03_25")
 >>> robot.coordinates
 ('q1', 'q2')
+>>> robot.check_parameter_value("m1", -1)
+Traceback (most recent call last):
+...
+app.core.robot_model.ParameterError: m1: a mass must not be negative (got -1)
 """
 from __future__ import annotations
 
 import hashlib
 import math
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 
+import numpy as np
 import sympy as sp
-import yaml
 
 from .errors import UserError
-from .expressions import ExpressionError, parse_expression, symbol
+from .expressions import ExpressionError, excerpt, parse_expression, symbol
+from .files import load_yaml, read_user_file
+from .robot_model import (  # noqa: F401  (re-exported: the robot module is the entry point)
+    DELTA, GROUPS, KNOWN_KINDS, NON_NEGATIVE_KINDS, PARAMETER_KINDS, RESERVED_NAMES, Body, Damper,
+    Joint, Limits, Parameter, ParameterError, Point, RobotModel, Spring, Transform, check_parameter,
+    elementary_rotation)
 
 ROBOTS_DIR = Path(__file__).resolve().parent.parent / "robots"
-
-PARAMETER_KINDS = ("mass", "length", "com", "inertia", "gravity", "friction", "stiffness",
-                   "angle", "other")
-#: parameter kinds that are treated as known (kinematic) data by default in a linear parametrization
-KNOWN_KINDS = ("length", "gravity", "angle")
-GROUPS = ("exam", "throwing", "catching", "other")
-
-
-def _reserved_names() -> frozenset:
-    """Names that ``sympy.sympify`` would not read back as plain symbols (functions and constants of
-    sympy such as gamma, beta, E, I, S, N, and Python's builtins such as max)."""
-    import builtins
-    return frozenset(sp.__all__) | frozenset(dir(builtins))
-
-
-RESERVED_NAMES = _reserved_names()
 
 
 class RobotFileError(UserError):
     """A robot file is malformed; the message names the file, the field and the problem."""
-
-
-@dataclass(frozen=True)
-class Parameter:
-    """A named symbolic parameter with its default numeric value.
-
-    ``kind`` is one of PARAMETER_KINDS; masses, inertias and stiffnesses must be >= 0."""
-    name: str
-    value: float
-    kind: str = "other"
-    unit: str = ""
-    doc: str = ""
-
-    @property
-    def symbol(self) -> sp.Symbol:
-        return symbol(self.name)
-
-
-@dataclass(frozen=True)
-class Transform:
-    """A constant rigid transform: rotation matrix R (3x3 sympy) and translation p (3 sympy).
-
-    ``rotations`` keeps the elementary rotations (axis, angle) it was built from, when it is one,
-    so that chains of rotations about the same axis can be merged into one angle."""
-    R: sp.Matrix
-    p: sp.Matrix
-    rotations: Tuple[Tuple[Tuple[int, int, int], sp.Expr], ...] | None = ()
-
-    @staticmethod
-    def identity() -> "Transform":
-        return Transform(sp.eye(3), sp.zeros(3, 1), ())
-
-
-@dataclass(frozen=True)
-class Joint:
-    """Joint of a body: parent frame -> ``pre`` -> motion about/along ``axis`` by ``value`` -> ``post``."""
-    type: str                    # "revolute", "prismatic" or "fixed"
-    axis: Tuple[int, int, int] | sp.Matrix
-    value: sp.Expr               # joint variable as a function of the coordinates
-    pre: Transform
-    post: Transform
-
-
-@dataclass(frozen=True)
-class Body:
-    name: str
-    parent: Optional[str]        # None = the fixed base
-    joint: Joint
-    mass: sp.Expr
-    com: sp.Matrix               # CoM in the body frame
-    inertia: sp.Matrix           # inertia tensor about the CoM, body axes
-    planar_inertia: bool = False  # inertia was given as one scalar (about the plane normal)
-    color: Optional[str] = None
-    doc: str = ""
-
-
-@dataclass(frozen=True)
-class Spring:
-    """Potential energy 1/2 k (expr - rest)^2 with expr a function of the coordinates, or the
-    zero-rest-length spring 1/2 k |p_a - p_b|^2 between two points (body, position)."""
-    name: str
-    stiffness: sp.Expr
-    expr: Optional[sp.Expr] = None
-    rest: sp.Expr = sp.Integer(0)
-    points: Optional[Tuple[Tuple[Optional[str], sp.Matrix], Tuple[Optional[str], sp.Matrix]]] = None
-
-
-@dataclass(frozen=True)
-class Point:
-    """A named point fixed in a body (or in the base when body is None)."""
-    name: str
-    body: Optional[str]
-    position: sp.Matrix
-
-
-@dataclass(frozen=True)
-class Limits:
-    position: Optional[Tuple[float, float]] = None
-    velocity: Optional[float] = None
-    torque: Optional[float] = None
-
-
-@dataclass(frozen=True)
-class RobotModel:
-    """Everything a robot file says, parsed and checked. Immutable."""
-    name: str
-    title: str
-    description: str
-    group: str
-    coordinates: Tuple[str, ...]
-    parameters: Dict[str, Parameter]
-    gravity: sp.Matrix
-    bodies: Tuple[Body, ...]
-    springs: Tuple[Spring, ...] = ()
-    motor_inertias: Dict[str, sp.Expr] = field(default_factory=dict)   # coordinate -> inertia
-    viscous: Dict[str, sp.Expr] = field(default_factory=dict)          # coordinate -> coefficient
-    coulomb: Dict[str, sp.Expr] = field(default_factory=dict)
-    actuated: Tuple[bool, ...] = ()
-    limits: Dict[str, Limits] = field(default_factory=dict)
-    points: Dict[str, Point] = field(default_factory=dict)
-    plane: Optional[str] = None          # "vertical", "horizontal" or None (spatial)
-    draw: dict = field(default_factory=dict)
-    defaults: Dict[str, float] = field(default_factory=dict)   # default coordinate values
-    source: str = ""                     # path of the file
-    content_hash: str = ""
-    notes: Tuple[str, ...] = ()
-
-    # -------------------------------------------------------------- symbols
-    @property
-    def n(self) -> int:
-        return len(self.coordinates)
-
-    @property
-    def q(self) -> List[sp.Symbol]:
-        return [symbol(c) for c in self.coordinates]
-
-    @property
-    def dq(self) -> List[sp.Symbol]:
-        return [symbol("d" + c) for c in self.coordinates]
-
-    @property
-    def ddq(self) -> List[sp.Symbol]:
-        return [symbol("dd" + c) for c in self.coordinates]
-
-    def reference_symbols(self) -> Tuple[List[sp.Symbol], List[sp.Symbol]]:
-        """Symbols of the reference velocity and acceleration used in adaptive regressors."""
-        return ([symbol("d" + c + "_r") for c in self.coordinates],
-                [symbol("dd" + c + "_r") for c in self.coordinates])
-
-    @property
-    def parameter_symbols(self) -> List[sp.Symbol]:
-        return [p.symbol for p in self.parameters.values()]
-
-    def parameter_values(self, overrides: Mapping[str, float] | None = None) -> Dict[str, float]:
-        values = {name: p.value for name, p in self.parameters.items()}
-        if overrides:
-            for key, value in overrides.items():
-                if key not in values:
-                    raise KeyError(f"robot {self.name} has no parameter '{key}'")
-                values[key] = float(value)
-        return values
-
-    def body(self, name: str) -> Body:
-        for b in self.bodies:
-            if b.name == name:
-                return b
-        raise KeyError(f"robot {self.name} has no body '{name}'")
-
-    def chain(self, body_name: Optional[str]) -> List[Body]:
-        """Bodies from the base to ``body_name`` (inclusive)."""
-        out: List[Body] = []
-        while body_name is not None:
-            b = self.body(body_name)
-            out.append(b)
-            body_name = b.parent
-        return out[::-1]
-
-    @property
-    def is_planar(self) -> bool:
-        return self.plane is not None
 
 
 # ====================================================================== parsing helpers
@@ -233,21 +66,6 @@ class _Ctx:
 
 _AXES = {"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1),
          "-x": (-1, 0, 0), "-y": (0, -1, 0), "-z": (0, 0, -1)}
-
-
-def elementary_rotation(axis: Tuple[int, int, int], angle) -> sp.Matrix:
-    """Rotation matrix about a unit axis (Rodrigues), exact for numeric or symbolic angles.
-
-    >>> elementary_rotation((0, 0, 1), sp.pi/2)
-    Matrix([
-    [0, -1, 0],
-    [1,  0, 0],
-    [0,  0, 1]])
-    """
-    u = sp.Matrix(axis)
-    ux = sp.Matrix([[0, -u[2], u[1]], [u[2], 0, -u[0]], [-u[1], u[0], 0]])
-    c, s = sp.cos(angle), sp.sin(angle)
-    return sp.eye(3) + s * ux + (1 - c) * ux * ux
 
 
 def _parse_axis(ctx: _Ctx, value, where: str):
@@ -344,6 +162,9 @@ def _parse_dh(ctx: _Ctx, spec, where: str, coordinate_syms, modified: bool) -> J
     for name, val in (("alpha", alpha), ("a", a)):
         if val.free_symbols & coordinate_syms:
             raise ctx.fail(f"{where}.{name}", "must not depend on the coordinates")
+    if in_theta or in_d:
+        _check_joint_variable(ctx, "revolute" if in_theta else "prismatic", theta if in_theta else d,
+                              coordinate_syms, f"{where}.{'theta' if in_theta else 'd'}")
     z = (0, 0, 1)
     if in_theta:
         jtype, value = "revolute", theta
@@ -397,13 +218,26 @@ def _check_keys(ctx: _Ctx, spec: dict, allowed: set, where: str) -> None:
 
 
 _TOP_KEYS = {"name", "title", "description", "group", "coordinates", "parameters", "gravity",
-             "bodies", "springs", "motors", "friction", "actuated", "limits", "points", "plane",
+             "bodies", "springs", "dampers", "motors", "friction", "actuated", "limits", "points", "plane",
              "draw", "defaults", "notes", "format"}
 
 
-def parse_robot(data, source: str = "<robot>", content_hash: str = "") -> RobotModel:
-    """Build a RobotModel from the parsed YAML mapping ``data``; raise RobotFileError on problems."""
-    ctx = _Ctx(source, [])
+def _is_name(value) -> bool:
+    """An ASCII identifier (a full-width or other look-alike letter is refused, not read as ASCII)."""
+    return isinstance(value, str) and value.isascii() and value.isidentifier()
+
+
+def _text(ctx: _Ctx, value, where: str, limit: int = 20000) -> str:
+    """A free text field (title, description, doc, unit, notes): a string or a number."""
+    if isinstance(value, bool) or not isinstance(value, (str, int, float)):
+        raise ctx.fail(where, f"expected a text, got {excerpt(value)}")
+    text = str(value)
+    if len(text) > limit:
+        raise ctx.fail(where, f"text longer than {limit} characters")
+    return text
+
+
+def _parse_header(ctx: _Ctx, data) -> Tuple[str, str]:
     if not isinstance(data, dict):
         raise ctx.fail("top level", "expected a mapping (key: value lines)")
     _check_keys(ctx, data, _TOP_KEYS, "top level")
@@ -411,34 +245,38 @@ def parse_robot(data, source: str = "<robot>", content_hash: str = "") -> RobotM
         if key not in data:
             raise ctx.fail(key, "required field is missing")
     name = data["name"]
-    if not isinstance(name, str) or not name.replace("_", "").replace("-", "").isalnum():
-        raise ctx.fail("name", f"expected an identifier (letters, digits, _ and -), got {name!r}")
+    if not isinstance(name, str) or not name.isascii() or not name.replace("_", "").replace("-", "").isalnum():
+        raise ctx.fail("name", f"expected an identifier (letters, digits, _ and -), got {excerpt(name)}")
     group = data.get("group", "other")
     if group not in GROUPS:
-        raise ctx.fail("group", f"expected one of {GROUPS}, got {group!r}")
+        raise ctx.fail("group", f"expected one of {GROUPS}, got {excerpt(group)}")
+    return name, group
 
-    coords = data["coordinates"]
-    if not isinstance(coords, list) or not coords or not all(isinstance(c, str) and c.isidentifier() for c in coords):
-        raise ctx.fail("coordinates", f"expected a non-empty list of identifiers, got {coords!r}")
+
+def _parse_coordinates(ctx: _Ctx, coords) -> List[str]:
+    if not isinstance(coords, list) or not coords or not all(_is_name(c) for c in coords):
+        raise ctx.fail("coordinates", f"expected a non-empty list of ASCII identifiers, got {excerpt(coords)}")
     if len(set(coords)) != len(coords):
         raise ctx.fail("coordinates", "duplicate coordinate names")
     for c in coords:
-        if c in RESERVED_NAMES:
+        if c in RESERVED_NAMES or c == DELTA:
             raise ctx.fail("coordinates", f"'{c}' is a sympy/Python name and would not read back as a symbol; "
                            f"choose another name (e.g. {c}_)")
+    return coords
 
-    # ---- parameters
+
+def _parse_parameters(ctx: _Ctx, raw, coords: Sequence[str]) -> Dict[str, Parameter]:
     params: Dict[str, Parameter] = {}
-    raw_params = data.get("parameters") or {}
-    if not isinstance(raw_params, dict):
+    raw = raw or {}
+    if not isinstance(raw, dict):
         raise ctx.fail("parameters", "expected a mapping name: value or name: {value, kind, unit, doc}")
-    reserved = set(coords) | {"d" + c for c in coords} | {"dd" + c for c in coords} | {"pi", "E"}
-    for pname, spec in raw_params.items():
+    reserved = set(coords) | {"d" + c for c in coords} | {"dd" + c for c in coords} | {"pi", "E", DELTA}
+    for pname, spec in raw.items():
         where = f"parameters.{pname}"
-        if not isinstance(pname, str) or not pname.isidentifier():
-            raise ctx.fail(where, "a parameter name must be an identifier")
+        if not _is_name(pname):
+            raise ctx.fail(f"parameters.{excerpt(pname, 30)}", "a parameter name must be an ASCII identifier")
         if pname in reserved:
-            raise ctx.fail(where, "name clashes with a coordinate, its derivatives or a constant")
+            raise ctx.fail(where, "name clashes with a coordinate, its derivatives, a constant or delta")
         if pname in RESERVED_NAMES:
             raise ctx.fail(where, f"'{pname}' is a sympy/Python name (sympify would not read it back as a "
                            f"symbol); choose another name, e.g. {pname}_ or {pname}0")
@@ -447,161 +285,207 @@ def parse_robot(data, source: str = "<robot>", content_hash: str = "") -> RobotM
         _check_keys(ctx, spec, {"value", "kind", "unit", "doc"}, where)
         kind = spec.get("kind", "other")
         if kind not in PARAMETER_KINDS:
-            raise ctx.fail(f"{where}.kind", f"expected one of {PARAMETER_KINDS}, got {kind!r}")
+            raise ctx.fail(f"{where}.kind", f"expected one of {PARAMETER_KINDS}, got {excerpt(kind)}")
         try:
-            value = float(parse_expression(spec.get("value"), allowed_names=()))
-        except (ExpressionError, TypeError) as exc:
+            value = check_parameter(pname, kind, float(parse_expression(spec.get("value"), allowed_names=())))
+        except ExpressionError as exc:
             raise ctx.fail(f"{where}.value", f"expected a number: {exc}") from None
-        if not math.isfinite(value):
-            raise ctx.fail(f"{where}.value", "must be finite")
-        if kind in ("mass", "inertia", "stiffness", "friction") and value < 0:
-            raise ctx.fail(f"{where}.value", f"a {kind} must not be negative (got {value})")
-        params[pname] = Parameter(pname, value, kind, str(spec.get("unit", "")), str(spec.get("doc", "")))
+        except ParameterError as exc:
+            raise ctx.fail(f"{where}.value", str(exc)) from None
+        params[pname] = Parameter(pname, value, kind, _text(ctx, spec.get("unit", ""), f"{where}.unit"),
+                                  _text(ctx, spec.get("doc", ""), f"{where}.doc"))
+    return params
 
-    ctx.names = set(coords) | set(params)
-    coord_syms = {symbol(c) for c in coords}
-    param_ctx = _Ctx(source, list(params))          # for expressions that must not depend on q
 
-    def const_expr(value, where):
-        return param_ctx.expr(value, where)
+def _check_joint_variable(ctx: _Ctx, jtype: str, value: sp.Expr, coord_syms, where: str) -> None:
+    """A revolute joint turns by an integer combination of the coordinates plus a constant (so that
+    its sines and cosines stay trigonometric polynomials); a prismatic one slides by a polynomial."""
+    if not value.free_symbols & coord_syms:
+        raise ctx.fail(where, "the joint variable does not depend on any coordinate")
+    if jtype == "revolute":
+        for term in sp.Add.make_args(sp.expand(value)):
+            coeff, rest = term.as_coeff_Mul()
+            if term.free_symbols & coord_syms and not (rest in coord_syms and coeff.is_Integer):
+                raise ctx.fail(where, "a revolute joint variable must be a sum of integer multiples of the "
+                               f"coordinates plus a constant (q2, q2 - q1, q3 + pi/2), got {excerpt(value)}")
+    elif not value.is_polynomial(*coord_syms):
+        raise ctx.fail(where, f"a prismatic joint variable must be a polynomial in the coordinates, got {excerpt(value)}")
 
-    def const_vector(value, where):
-        return param_ctx.vector(value, where)
 
-    gravity = const_vector(data.get("gravity", [0, 0, 0]), "gravity")
+def _parse_joint(ctx: _Ctx, const: _Ctx, spec, where: str, coord_syms) -> Joint:
+    if not isinstance(spec, dict):
+        raise ctx.fail(where, "expected a mapping")
+    _check_keys(ctx, spec, {"type", "axis", "q", "origin", "post"}, where)
+    jtype = spec.get("type", "revolute")
+    if jtype not in ("revolute", "prismatic", "fixed"):
+        raise ctx.fail(f"{where}.type", f"expected revolute, prismatic or fixed, got {excerpt(jtype)}")
+    axis = _parse_axis(ctx, spec.get("axis", "z"), f"{where}.axis")
+    if jtype == "fixed":
+        value = sp.Integer(0)
+    else:
+        if "q" not in spec:
+            raise ctx.fail(f"{where}.q", "missing the joint variable (an expression of the coordinates)")
+        value = ctx.expr(spec["q"], f"{where}.q")
+        _check_joint_variable(ctx, jtype, value, coord_syms, f"{where}.q")
+    pre = _parse_transform(const, spec.get("origin"), f"{where}.origin")
+    post = _parse_transform(const, spec.get("post"), f"{where}.post")
+    return Joint(jtype, axis, value, pre, post)
 
-    # ---- bodies
-    raw_bodies = data["bodies"]
-    if not isinstance(raw_bodies, list) or not raw_bodies:
+
+_BODY_KEYS = {"name", "parent", "joint", "dh", "mdh", "mass", "com", "inertia", "color", "doc"}
+
+
+def _parse_bodies(ctx: _Ctx, const: _Ctx, raw, coord_syms) -> List[Body]:
+    if not isinstance(raw, list) or not raw:
         raise ctx.fail("bodies", "expected a non-empty list of bodies")
     bodies: List[Body] = []
     names: List[str] = []
-    for i, spec in enumerate(raw_bodies):
+    for i, spec in enumerate(raw):
         where = f"bodies[{i}]"
         if not isinstance(spec, dict):
             raise ctx.fail(where, "expected a mapping")
-        _check_keys(ctx, spec, {"name", "parent", "joint", "dh", "mdh", "mass", "com", "inertia",
-                                "color", "doc"}, where)
+        _check_keys(ctx, spec, _BODY_KEYS, where)
         bname = spec.get("name", f"link{i + 1}")
+        if not _is_name(bname):
+            raise ctx.fail(f"{where}.name", f"expected an ASCII identifier, got {excerpt(bname)}")
         where = f"bodies[{i}] ({bname})"
         if bname in names or bname == "base":
             raise ctx.fail(where, f"duplicate body name '{bname}'")
         parent = spec.get("parent", names[-1] if names else "base")
         if parent != "base" and parent not in names:
-            raise ctx.fail(f"{where}.parent", f"unknown parent '{parent}' (bodies must be listed after their parent)")
+            raise ctx.fail(f"{where}.parent", f"unknown parent {excerpt(parent)} (bodies must be listed after their parent)")
         kinds = [k for k in ("joint", "dh", "mdh") if k in spec]
         if len(kinds) != 1:
             raise ctx.fail(where, "give exactly one of joint, dh, mdh")
         if kinds[0] == "joint":
-            jspec = spec["joint"]
-            if not isinstance(jspec, dict):
-                raise ctx.fail(f"{where}.joint", "expected a mapping")
-            _check_keys(ctx, jspec, {"type", "axis", "q", "origin", "post"}, f"{where}.joint")
-            jtype = jspec.get("type", "revolute")
-            if jtype not in ("revolute", "prismatic", "fixed"):
-                raise ctx.fail(f"{where}.joint.type", f"expected revolute, prismatic or fixed, got {jtype!r}")
-            axis = _parse_axis(ctx, jspec.get("axis", "z"), f"{where}.joint.axis")
-            if jtype == "fixed":
-                value = sp.Integer(0)
-            else:
-                if "q" not in jspec:
-                    raise ctx.fail(f"{where}.joint.q", "missing the joint variable (an expression of the coordinates)")
-                value = ctx.expr(jspec["q"], f"{where}.joint.q")
-                if not value.free_symbols & coord_syms:
-                    raise ctx.fail(f"{where}.joint.q", "the joint variable does not depend on any coordinate")
-            pre = _parse_transform(param_ctx, jspec.get("origin"), f"{where}.joint.origin")
-            post = _parse_transform(param_ctx, jspec.get("post"), f"{where}.joint.post")
-            joint = Joint(jtype, axis, value, pre, post)
+            joint = _parse_joint(ctx, const, spec["joint"], f"{where}.joint", coord_syms)
         else:
             joint = _parse_dh(ctx, spec[kinds[0]], f"{where}.{kinds[0]}", coord_syms, kinds[0] == "mdh")
-        mass = const_expr(spec.get("mass", 0), f"{where}.mass")
-        com = const_vector(spec.get("com", [0, 0, 0]), f"{where}.com")
-        inertia, planar_inertia = _parse_inertia(param_ctx, spec.get("inertia"), f"{where}.inertia")
+        mass = const.expr(spec.get("mass", 0), f"{where}.mass")
+        com = const.vector(spec.get("com", [0, 0, 0]), f"{where}.com")
+        inertia, planar_inertia = _parse_inertia(const, spec.get("inertia"), f"{where}.inertia")
         bodies.append(Body(bname, None if parent == "base" else parent, joint, mass, com, inertia,
-                           planar_inertia, spec.get("color"), str(spec.get("doc", ""))))
+                           planar_inertia, spec.get("color"), _text(ctx, spec.get("doc", ""), f"{where}.doc")))
         names.append(bname)
+    return bodies
 
-    used = set()
-    for b in bodies:
-        used |= b.joint.value.free_symbols & coord_syms
 
-    # ---- motors (rotor inertias of elastic joints or actuators modelled as extra coordinates)
-    motors: Dict[str, sp.Expr] = {}
-    raw_motors = data.get("motors") or {}
-    if not isinstance(raw_motors, dict):
+def _parse_motors(ctx: _Ctx, const: _Ctx, raw, coords) -> Dict[str, sp.Expr]:
+    """Rotor inertias of elastic joints or actuators modelled as extra coordinates."""
+    raw = raw or {}
+    if not isinstance(raw, dict):
         raise ctx.fail("motors", "expected a mapping coordinate: inertia")
-    for cname, value in raw_motors.items():
+    motors: Dict[str, sp.Expr] = {}
+    for cname, value in raw.items():
         if cname not in coords:
-            raise ctx.fail(f"motors.{cname}", "not a coordinate")
-        motors[cname] = const_expr(value, f"motors.{cname}")
-        used.add(symbol(cname))
+            raise ctx.fail(f"motors.{excerpt(cname, 30)}", "not a coordinate")
+        motors[cname] = const.expr(value, f"motors.{cname}")
+    return motors
 
-    # ---- springs
-    springs: List[Spring] = []
-    raw_springs = data.get("springs") or []
-    if not isinstance(raw_springs, list):
+
+def _parse_spring(ctx: _Ctx, const: _Ctx, spec, where: str, bodies: Sequence[str], coord_syms) -> Spring:
+    if not isinstance(spec, dict):
+        raise ctx.fail(where, "expected a mapping")
+    _check_keys(ctx, spec, {"name", "stiffness", "force", "expr", "rest", "between"}, where)
+    sname = str(spec.get("name", where.replace("springs[", "spring").rstrip("]")))
+    if ("expr" in spec) == ("between" in spec):
+        raise ctx.fail(where, "give exactly one of expr (a function of the coordinates) or between (two points)")
+    if "force" in spec:
+        if "stiffness" in spec or "between" in spec:
+            raise ctx.fail(where, "a nonlinear spring gives force (a polynomial in delta) and expr, not stiffness or between")
+        force = _Ctx(ctx.source, list(const.names) + [DELTA]).expr(spec["force"], f"{where}.force")
+        stretch = symbol(DELTA)
+        if not force.is_polynomial(stretch) or force.free_symbols & coord_syms:
+            raise ctx.fail(f"{where}.force", f"expected a polynomial in delta with constant coefficients, got {excerpt(force)}")
+        if sp.expand(force.xreplace({stretch: 0})) != 0:
+            raise ctx.fail(f"{where}.force", "the force must vanish at delta = 0 (give rest for a preloaded spring)")
+        return Spring(sname, None, _stretch_expr(ctx, spec["expr"], f"{where}.expr", coord_syms),
+                      const.expr(spec.get("rest", 0), f"{where}.rest"), force=force)
+    k = const.expr(spec.get("stiffness"), f"{where}.stiffness")
+    if "expr" in spec:
+        return Spring(sname, k, _stretch_expr(ctx, spec["expr"], f"{where}.expr", coord_syms),
+                      const.expr(spec.get("rest", 0), f"{where}.rest"))
+    pts = spec["between"]
+    if not isinstance(pts, list) or len(pts) != 2:
+        raise ctx.fail(f"{where}.between", "expected two points [body, [x, y, z]]")
+    parsed = []
+    for j, pt in enumerate(pts):
+        if not isinstance(pt, list) or len(pt) != 2:
+            raise ctx.fail(f"{where}.between[{j}]", "expected [body, [x, y, z]] (body may be base)")
+        bn = pt[0]
+        if bn != "base" and bn not in bodies:
+            raise ctx.fail(f"{where}.between[{j}]", f"unknown body {excerpt(bn, 30)}")
+        parsed.append((None if bn == "base" else bn, const.vector(pt[1], f"{where}.between[{j}][1]")))
+    if "rest" in spec and spec["rest"] not in (0, "0"):
+        raise ctx.fail(f"{where}.rest", "springs between points have zero rest length")
+    return Spring(sname, k, None, sp.Integer(0), tuple(parsed))
+
+
+def _stretch_expr(ctx: _Ctx, value, where: str, coord_syms) -> sp.Expr:
+    expr = ctx.expr(value, where)
+    if not expr.free_symbols & coord_syms:
+        raise ctx.fail(where, "must depend on the coordinates")
+    return expr
+
+
+def _parse_springs(ctx: _Ctx, const: _Ctx, raw, bodies: Sequence[str], coord_syms) -> List[Spring]:
+    raw = raw or []
+    if not isinstance(raw, list):
         raise ctx.fail("springs", "expected a list")
-    for i, spec in enumerate(raw_springs):
-        where = f"springs[{i}]"
+    return [_parse_spring(ctx, const, spec, f"springs[{i}]", bodies, coord_syms) for i, spec in enumerate(raw)]
+
+
+def _parse_dampers(ctx: _Ctx, const: _Ctx, raw, coord_syms) -> List[Damper]:
+    raw = raw or []
+    if not isinstance(raw, list):
+        raise ctx.fail("dampers", "expected a list of {name, coefficient, expr}")
+    dampers = []
+    for i, spec in enumerate(raw):
+        where = f"dampers[{i}]"
         if not isinstance(spec, dict):
-            raise ctx.fail(where, "expected a mapping")
-        _check_keys(ctx, spec, {"name", "stiffness", "expr", "rest", "between"}, where)
-        k = const_expr(spec.get("stiffness"), f"{where}.stiffness")
-        sname = str(spec.get("name", f"spring{i + 1}"))
-        if ("expr" in spec) == ("between" in spec):
-            raise ctx.fail(where, "give exactly one of expr (a function of the coordinates) or between (two points)")
-        if "expr" in spec:
-            springs.append(Spring(sname, k, ctx.expr(spec["expr"], f"{where}.expr"),
-                                  const_expr(spec.get("rest", 0), f"{where}.rest")))
-        else:
-            pts = spec["between"]
-            if not isinstance(pts, list) or len(pts) != 2:
-                raise ctx.fail(f"{where}.between", "expected two points [body, [x, y, z]]")
-            parsed = []
-            for j, pt in enumerate(pts):
-                if not isinstance(pt, list) or len(pt) != 2:
-                    raise ctx.fail(f"{where}.between[{j}]", "expected [body, [x, y, z]] (body may be base)")
-                bn = pt[0]
-                if bn != "base" and bn not in names:
-                    raise ctx.fail(f"{where}.between[{j}]", f"unknown body '{bn}'")
-                parsed.append((None if bn == "base" else bn, const_vector(pt[1], f"{where}.between[{j}][1]")))
-            if "rest" in spec and spec["rest"] not in (0, "0"):
-                raise ctx.fail(f"{where}.rest", "springs between points have zero rest length")
-            springs.append(Spring(sname, k, None, sp.Integer(0), tuple(parsed)))
+            raise ctx.fail(where, "expected a mapping {name, coefficient, expr}")
+        _check_keys(ctx, spec, {"name", "coefficient", "expr"}, where)
+        expr = _stretch_expr(ctx, spec.get("expr"), f"{where}.expr", coord_syms)
+        if any(sp.diff(expr, c).free_symbols & coord_syms for c in coord_syms):
+            raise ctx.fail(f"{where}.expr", f"a damper acts on an affine function of the coordinates "
+                           f"(e.g. theta - q), got {excerpt(expr)}")
+        dampers.append(Damper(str(spec.get("name", f"damper{i + 1}")),
+                              const.expr(spec.get("coefficient"), f"{where}.coefficient"), expr))
+    return dampers
 
-    unused = [c for c in coords if symbol(c) not in used]
-    if unused:
-        raise ctx.fail("coordinates", f"coordinate(s) {unused} move no joint and no motor")
 
-    # ---- friction
+def _parse_friction(ctx: _Ctx, const: _Ctx, raw, coords) -> Tuple[Dict[str, sp.Expr], Dict[str, sp.Expr]]:
     viscous: Dict[str, sp.Expr] = {}
     coulomb: Dict[str, sp.Expr] = {}
-    raw_fr = data.get("friction") or {}
-    if not isinstance(raw_fr, dict):
+    raw = raw or {}
+    if not isinstance(raw, dict):
         raise ctx.fail("friction", "expected a mapping with viscous and/or coulomb")
-    _check_keys(ctx, raw_fr, {"viscous", "coulomb"}, "friction")
+    _check_keys(ctx, raw, {"viscous", "coulomb"}, "friction")
     for kind_name, target in (("viscous", viscous), ("coulomb", coulomb)):
-        entries = raw_fr.get(kind_name) or {}
+        entries = raw.get(kind_name) or {}
         if not isinstance(entries, dict):
             raise ctx.fail(f"friction.{kind_name}", "expected a mapping coordinate: coefficient")
         for cname, value in entries.items():
             if cname not in coords:
-                raise ctx.fail(f"friction.{kind_name}.{cname}", "not a coordinate")
-            target[cname] = const_expr(value, f"friction.{kind_name}.{cname}")
+                raise ctx.fail(f"friction.{kind_name}.{excerpt(cname, 30)}", "not a coordinate")
+            target[cname] = const.expr(value, f"friction.{kind_name}.{cname}")
+    return viscous, coulomb
 
-    # ---- actuation
-    act_spec = data.get("actuated", list(coords))
-    if not isinstance(act_spec, list) or any(a not in coords for a in act_spec):
-        raise ctx.fail("actuated", f"expected a list of coordinate names, got {act_spec!r}")
-    actuated = tuple(c in act_spec for c in coords)
 
-    # ---- limits
+def _number(ctx: _Ctx, value, where: str) -> float:
+    try:
+        return float(parse_expression(value, allowed_names=()))
+    except ExpressionError as exc:
+        raise ctx.fail(where, str(exc)) from None
+
+
+def _parse_limits(ctx: _Ctx, raw, coords) -> Dict[str, Limits]:
     limits: Dict[str, Limits] = {}
-    raw_limits = data.get("limits") or {}
-    if not isinstance(raw_limits, dict):
+    raw = raw or {}
+    if not isinstance(raw, dict):
         raise ctx.fail("limits", "expected a mapping coordinate: {position, velocity, torque}")
-    for cname, spec in raw_limits.items():
-        where = f"limits.{cname}"
+    for cname, spec in raw.items():
+        where = f"limits.{excerpt(cname, 30) if cname not in coords else cname}"
         if cname not in coords:
             raise ctx.fail(where, "not a coordinate")
         if not isinstance(spec, dict):
@@ -611,65 +495,152 @@ def parse_robot(data, source: str = "<robot>", content_hash: str = "") -> RobotM
         if pos is not None:
             if not isinstance(pos, list) or len(pos) != 2:
                 raise ctx.fail(f"{where}.position", "expected [lower, upper]")
-            lo, hi = (float(parse_expression(v, allowed_names=())) for v in pos)
+            lo, hi = (_number(ctx, v, f"{where}.position") for v in pos)
             if not lo < hi:
                 raise ctx.fail(f"{where}.position", f"lower limit {lo} must be below upper {hi}")
             pos = (lo, hi)
-        vel = spec.get("velocity")
-        tor = spec.get("torque")
-        vel = None if vel is None else float(parse_expression(vel, allowed_names=()))
-        tor = None if tor is None else float(parse_expression(tor, allowed_names=()))
+        vel, tor = (None if spec.get(k) is None else _number(ctx, spec[k], f"{where}.{k}") for k in ("velocity", "torque"))
         for label, v in (("velocity", vel), ("torque", tor)):
             if v is not None and not v > 0:
                 raise ctx.fail(f"{where}.{label}", "must be positive")
         limits[cname] = Limits(pos, vel, tor)
+    return limits
 
-    # ---- points
+
+def _parse_points(ctx: _Ctx, const: _Ctx, raw, bodies: Sequence[str]) -> Dict[str, Point]:
     points: Dict[str, Point] = {}
-    raw_points = data.get("points") or {}
-    if not isinstance(raw_points, dict):
+    raw = raw or {}
+    if not isinstance(raw, dict):
         raise ctx.fail("points", "expected a mapping name: {body, at}")
-    for pname, spec in raw_points.items():
-        where = f"points.{pname}"
+    for pname, spec in raw.items():
+        where = f"points.{excerpt(pname, 30) if not _is_name(pname) else pname}"
+        if not _is_name(pname):
+            raise ctx.fail(where, "a point name must be an ASCII identifier")
         if not isinstance(spec, dict) or "body" not in spec:
             raise ctx.fail(where, "expected {body: NAME, at: [x, y, z]}")
         _check_keys(ctx, spec, {"body", "at"}, where)
         bn = spec["body"]
-        if bn != "base" and bn not in names:
-            raise ctx.fail(f"{where}.body", f"unknown body '{bn}'")
-        points[pname] = Point(pname, None if bn == "base" else bn, const_vector(spec.get("at", [0, 0, 0]), f"{where}.at"))
+        if bn != "base" and bn not in bodies:
+            raise ctx.fail(f"{where}.body", f"unknown body {excerpt(bn, 30)}")
+        points[pname] = Point(pname, None if bn == "base" else bn, const.vector(spec.get("at", [0, 0, 0]), f"{where}.at"))
+    return points
 
-    plane = data.get("plane")
+
+def _parse_plane(ctx: _Ctx, plane, bodies: Sequence[Body]) -> Optional[str]:
     if plane not in (None, "vertical", "horizontal"):
-        raise ctx.fail("plane", f"expected vertical, horizontal or nothing (spatial), got {plane!r}")
+        raise ctx.fail("plane", f"expected vertical, horizontal or nothing (spatial), got {excerpt(plane)}")
     if plane is not None:
         for b in bodies:
-            ax = b.joint.axis
-            if b.joint.type == "revolute" and ax not in ((0, 0, 1), (0, 0, -1)):
+            if b.joint.type == "revolute" and b.joint.axis not in ((0, 0, 1), (0, 0, -1)):
                 raise ctx.fail(f"bodies ({b.name})", "a planar robot (plane: ...) needs revolute axes along z")
+    return plane
 
+
+def _check_coordinates_used(ctx: _Ctx, coords, bodies: Sequence[Body], motors) -> None:
+    used = set(symbol(c) for c in motors)
+    for b in bodies:
+        used |= b.joint.value.free_symbols
+    unused = [c for c in coords if symbol(c) not in used]
+    if unused:
+        raise ctx.fail("coordinates", f"coordinate(s) {unused} move no joint and no motor")
+
+
+def _value_at(ctx: _Ctx, expr: sp.Expr, values: Mapping[sp.Symbol, float], where: str) -> float:
+    try:
+        value = float(expr.xreplace(values))
+    except (TypeError, ValueError, OverflowError):
+        raise ctx.fail(where, f"not a real number at the default parameter values ({excerpt(expr)})") from None
+    if not math.isfinite(value):
+        raise ctx.fail(where, f"not finite at the default parameter values ({excerpt(expr)})")
+    return value
+
+
+def _check_physics(ctx: _Ctx, robot: "RobotModel") -> None:
+    """At the default parameter values: masses, rotor inertias, stiffnesses, damper and friction
+    coefficients not negative, inertia tensors positive semi-definite. (The triangle inequality of
+    principal moments is not imposed: exam models often give only the moment about the joint axis.)"""
+    values = {p.symbol: p.value for p in robot.parameters.values()}
+
+    def non_negative(expr, where, what):
+        value = _value_at(ctx, expr, values, where)
+        if value < 0:
+            shown = f"got {value:g}" if expr.is_number else f"{sp.sstr(expr)[:40]} = {value:g} at the default parameter values"
+            raise ctx.fail(where, f"a {what} must not be negative ({shown})")
+
+    for i, body in enumerate(robot.bodies):
+        where = f"bodies[{i}] ({body.name})"
+        non_negative(body.mass, f"{where}.mass", "mass")
+        tensor = np.array([[_value_at(ctx, body.inertia[r, c], values, f"{where}.inertia")
+                            for c in range(3)] for r in range(3)])
+        eigenvalues = np.linalg.eigvalsh(tensor)
+        if eigenvalues.min() < -1e-12 * max(1.0, float(np.abs(eigenvalues).max())):
+            raise ctx.fail(f"{where}.inertia", "the inertia tensor must be positive semi-definite (principal "
+                           f"moments {', '.join(f'{e:.4g}' for e in eigenvalues)} at the default parameter values)")
+    for cname, inertia in robot.motor_inertias.items():
+        non_negative(inertia, f"motors.{cname}", "rotor inertia")
+    for i, spring in enumerate(robot.springs):
+        if spring.force is None:
+            non_negative(spring.stiffness, f"springs[{i}].stiffness", "stiffness")
+        else:
+            linear = sp.diff(spring.force, symbol(DELTA)).xreplace({symbol(DELTA): 0})
+            non_negative(linear, f"springs[{i}].force", "linear stiffness (the force's slope at delta = 0)")
+    for i, damper in enumerate(robot.dampers):
+        non_negative(damper.coefficient, f"dampers[{i}].coefficient", "damping coefficient")
+    for kind_name, coefficients in (("viscous", robot.viscous), ("coulomb", robot.coulomb)):
+        for cname, coeff in coefficients.items():
+            non_negative(coeff, f"friction.{kind_name}.{cname}", "friction coefficient")
+
+
+def parse_robot(data, source: str = "<robot>", content_hash: str = "") -> RobotModel:
+    """Build a RobotModel from the parsed YAML mapping ``data``; raise RobotFileError on problems."""
+    ctx = _Ctx(source, [])
+    name, group = _parse_header(ctx, data)
+    coords = _parse_coordinates(ctx, data["coordinates"])
+    params = _parse_parameters(ctx, data.get("parameters"), coords)
+    ctx.names = set(coords) | set(params)
+    coord_syms = {symbol(c) for c in coords}
+    const = _Ctx(source, list(params))          # for expressions that must not depend on q
+    gravity = const.vector(data.get("gravity", [0, 0, 0]), "gravity")
+    bodies = _parse_bodies(ctx, const, data["bodies"], coord_syms)
+    body_names = [b.name for b in bodies]
+    motors = _parse_motors(ctx, const, data.get("motors"), coords)
+    springs = _parse_springs(ctx, const, data.get("springs"), body_names, coord_syms)
+    dampers = _parse_dampers(ctx, const, data.get("dampers"), coord_syms)
+    _check_coordinates_used(ctx, coords, bodies, motors)
+    viscous, coulomb = _parse_friction(ctx, const, data.get("friction"), coords)
+    act_spec = data.get("actuated", list(coords))
+    if not isinstance(act_spec, list) or any(a not in coords for a in act_spec):
+        raise ctx.fail("actuated", f"expected a list of coordinate names, got {excerpt(act_spec)}")
     defaults_raw = data.get("defaults") or {}
     if not isinstance(defaults_raw, dict) or any(k not in coords for k in defaults_raw):
         raise ctx.fail("defaults", "expected a mapping coordinate: value")
-    defaults = {k: float(parse_expression(v, allowed_names=())) for k, v in defaults_raw.items()}
-
     draw = data.get("draw") or {}
     if not isinstance(draw, dict):
         raise ctx.fail("draw", "expected a mapping")
     notes = data.get("notes") or []
-    if isinstance(notes, str):
-        notes = [notes]
-
-    return RobotModel(
-        name=name, title=str(data.get("title", name)), description=str(data.get("description", "")),
+    notes = [notes] if isinstance(notes, str) else notes
+    if not isinstance(notes, list):
+        raise ctx.fail("notes", "expected a text or a list of texts")
+    notes = [_text(ctx, n, f"notes[{i}]") for i, n in enumerate(notes)]
+    robot = RobotModel(
+        name=name, title=_text(ctx, data.get("title", name), "title"),
+        description=_text(ctx, data.get("description", ""), "description"),
         group=group, coordinates=tuple(coords), parameters=params, gravity=gravity,
-        bodies=tuple(bodies), springs=tuple(springs), motor_inertias=motors, viscous=viscous,
-        coulomb=coulomb, actuated=actuated, limits=limits, points=points, plane=plane, draw=draw,
-        defaults=defaults, source=source, content_hash=content_hash, notes=tuple(str(n) for n in notes))
+        bodies=tuple(bodies), springs=tuple(springs), dampers=tuple(dampers), motor_inertias=motors,
+        viscous=viscous, coulomb=coulomb, actuated=tuple(c in act_spec for c in coords),
+        limits=_parse_limits(ctx, data.get("limits"), coords),
+        points=_parse_points(ctx, const, data.get("points"), body_names),
+        plane=_parse_plane(ctx, data.get("plane"), bodies), draw=draw,
+        defaults={k: _number(ctx, v, f"defaults.{k}") for k, v in defaults_raw.items()},
+        source=source, content_hash=content_hash, notes=tuple(notes))
+    _check_physics(ctx, robot)
+    return robot
 
 
 def robot_path(name_or_path: str | Path) -> Path:
     """Resolve a shipped robot's name or a path to a robot file."""
+    if not str(name_or_path).strip():
+        raise RobotFileError("empty robot name (give a shipped robot's name or a path to a robot file)")
     candidate = Path(name_or_path)
     if candidate.suffix in (".yaml", ".yml", ".json") or candidate.exists():
         if not candidate.exists():
@@ -679,22 +650,18 @@ def robot_path(name_or_path: str | Path) -> Path:
     if shipped.exists():
         return shipped
     known = ", ".join(list_robot_names()[:8])
-    raise RobotFileError(f"unknown robot '{name_or_path}' (not a file, not a shipped robot; e.g. {known} ...; "
+    raise RobotFileError(f"unknown robot {excerpt(name_or_path)} (not a file, not a shipped robot; e.g. {known} ...; "
                          f"`python -m app robots` lists them)")
 
 
 def load_robot(name_or_path: str | Path) -> RobotModel:
-    """Load a shipped robot by name or a robot file by path."""
+    """Load a shipped robot by name or a robot file by path (a regular text file of at most 1 MB)."""
     path = robot_path(name_or_path)
-    text = path.read_text(encoding="utf-8")
-    return load_robot_text(text, str(path))
+    return load_robot_text(read_user_file(path, RobotFileError), str(path))
 
 
 def load_robot_text(text: str, source: str = "<robot>") -> RobotModel:
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise RobotFileError(f"{source}: not valid YAML: {exc}") from None
+    data = load_yaml(text, source, RobotFileError)
     digest = hashlib.sha256(text.encode("utf-8")).hexdigest()
     return parse_robot(data, source, digest)
 

@@ -394,7 +394,7 @@ class ThrowingArm:
             raise UserError(f"robot '{robot.name}' does not have the throwing arm's structure (three "
                             f"coordinates, the third passive, a point 'ball', parameters {REQUIRED_PARAMETERS}; "
                             f"missing: {missing})")
-        if robot.viscous or robot.coulomb:
+        if robot.has_friction:
             raise UserError("the VHC reduced dynamics of the throwing arm assumes no friction")
         self.robot = robot
         self.numeric = NumericModel(robot, params)      # validates the values

@@ -49,10 +49,9 @@ def build(session) -> None:
                      + coordinates_table(robot, session.ranges))
     extras = []
     for spring in robot.springs:
-        stretch = sp.sstr(spring.expr - spring.rest) if spring.expr is not None else ""
-        what = f"1/2 {sp.sstr(spring.stiffness)} ({stretch})^2" if spring.expr is not None \
-            else f"zero-length spring of stiffness {sp.sstr(spring.stiffness)}"
-        extras.append(f"- spring *{spring.name}*: U = {what}")
+        extras.append(f"- spring *{spring.name}*: {spring.describe()}")
+    for damper in robot.dampers:
+        extras.append(f"- *{damper.name}*: {damper.describe()}")
     for name, coeff in robot.viscous.items():
         extras.append(f"- viscous friction on {name}: {sp.sstr(coeff)} d{name}")
     for name, coeff in robot.coulomb.items():

@@ -19,7 +19,7 @@ import numpy as np
 
 from app.core.dynamics import derive
 from app.core.errors import UserError
-from app.core.expressions import ExpressionError, parse_expression
+from app.core.expressions import ExpressionError, excerpt, parse_expression
 from app.core.numeric import NumericModel, ParameterError, cross_check
 from app.panels import PanelSpec, discover_panels_with_errors
 from app.scene import RobotDrawing, default_q
@@ -33,7 +33,6 @@ ORDER_COORDS, ORDER_PARAMS, ORDER_DISPLAY, ORDER_TABS = 10, 11, 12, 100
 GROUP_LABELS = {"exam": "Exam robots", "throwing": "Throwing arm", "catching": "Catching arm",
                 "other": "Other robots"}
 
-NEGATIVE_NOT_ALLOWED = ("mass", "inertia", "stiffness", "friction")
 REJECT_DELAY = 0.8     # seconds of quiet before a bad parameter value is refused
 
 
@@ -47,7 +46,7 @@ def parse_parameter(robot, name: str, text: str) -> float:
     >>> parse_parameter(load_robot("planar_2r"), "m1", "-1")
     Traceback (most recent call last):
     ...
-    app.core.numeric.ParameterError: m1: a mass must not be negative (got -1)
+    app.core.robot_model.ParameterError: m1: a mass must not be negative (got -1)
     """
     text = (text or "").strip()
     if not text:
@@ -55,13 +54,8 @@ def parse_parameter(robot, name: str, text: str) -> float:
     try:
         value = float(parse_expression(text, allowed_names=()))
     except (ExpressionError, TypeError, ValueError):
-        raise ParameterError(f"{name}: '{text}' is not a number") from None
-    if not np.isfinite(value):
-        raise ParameterError(f"{name}: expected a finite number, got '{text}'")
-    kind = robot.parameters[name].kind
-    if kind in NEGATIVE_NOT_ALLOWED and value < 0:
-        raise ParameterError(f"{name}: a {kind} must not be negative (got {value:g})")
-    return value
+        raise ParameterError(f"{name}: {excerpt(text)} is not a number") from None
+    return robot.check_parameter_value(name, value)
 
 
 def format_number(value: float) -> str:

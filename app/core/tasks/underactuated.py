@@ -344,7 +344,7 @@ def linearization_task(ctx, spec):
         if not a and not TrigPoly.from_expr(u0[i]).is_zero():
             raise ExerciseError(f"linearization: not an equilibrium: the passive coordinate {m.coords[i]} "
                                 f"feels the static force {u0[i]}")
-    viscous = sp.Matrix([robot.viscous.get(c, 0) * m.dq[i] for i, c in enumerate(m.coords)])
+    viscous = sp.Matrix(robot.viscous_forces())
     M0 = m.tidy_matrix(m.M.subs(at))
     D = m.tidy_matrix((m.dyn.c + viscous).jacobian(m.dq).subs(zero_v).subs(at))
     K = m.tidy_matrix(static.jacobian(m.q).subs(at))
@@ -786,12 +786,14 @@ def _elastic_pairs(m: Model):
 
 
 def _linear_stiffness(springs) -> sp.Expr:
-    """The stiffness K of the springs of one joint that are linear in delta = theta - q."""
+    """The linear stiffness K of the springs of one joint: the curvature of their potential at
+    delta = theta - q = 0 (k for 1/2 k delta^2 or a force law k delta + k3 delta^3, 0 for
+    k_n/2 (delta^2)^2)."""
     K = sp.Integer(0)
     for spring, on_delta, delta in springs:
         if sp.Poly(on_delta, delta).degree() == 1:
-            K += spring.stiffness * on_delta.coeff(delta) ** 2
-    return K
+            K += sp.diff(spring.potential_of_stretch(on_delta), delta, 2).subs(delta, 0)
+    return sp.expand(K)
 
 
 def _motor_reference(ctx, spec, m: Model, link, mot, qd, th_d_syms):
