@@ -18,11 +18,11 @@ Run: ``python -m benchmarks.viewer`` (needs /usr/bin/chromium). Numbers go to do
 from __future__ import annotations
 
 import colorsys
+import os
 import statistics
 import tempfile
 import threading
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -86,17 +86,20 @@ def switching(browser):
     import app.core.dynamics as dynamics
     import app.core.numeric as numeric
     import app.scene as scene
-    saved = dynamics.CACHE_DIR
+    saved = os.environ.get("R2LAB_CACHE")
     for name in COLD:
         with tempfile.TemporaryDirectory() as tmp:
-            dynamics.CACHE_DIR = Path(tmp)
-            dynamics._memory.clear()
+            os.environ["R2LAB_CACHE"] = tmp           # an empty disk cache
+            dynamics.forget_derivations()
             numeric._LAMBDA_CACHE.clear()
             scene._FRAMES_CACHE.clear()
             lab._robots.clear()
             cold[name] = _switch(page, session, name)
             _switch(page, session, CACHED[0])
-    dynamics.CACHE_DIR = saved
+    if saved is None:
+        os.environ.pop("R2LAB_CACHE", None)
+    else:
+        os.environ["R2LAB_CACHE"] = saved
     page.context.close()
     lab.stop()
     return cached, cold

@@ -15,9 +15,6 @@ I2 + d2**2*m2
 from __future__ import annotations
 
 import hashlib
-import os
-import pickle
-import random
 import threading
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -26,8 +23,9 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple
 import numpy as np
 import sympy as sp
 
+from . import model_cache
+from .expressions import ExpressionError, NotStorable, dump_exact_list, load_exact_list, symbol
 from .kinematics import Kinematics
-from .expressions import symbol
 from .mathtext import symbols_text
 from .robot import DELTA, KNOWN_KINDS, RobotModel
 from .steps import Step, shorthand_is_clear, to_latex
@@ -37,13 +35,13 @@ def _engine_version() -> str:
     """Hash of the engine's own source: any change to it invalidates the disk cache."""
     here = Path(__file__).resolve().parent
     h = hashlib.sha256()
-    for name in ("dynamics.py", "kinematics.py", "robot.py", "trig.py", "expressions.py", "steps.py", "mathtext.py"):
+    for name in ("dynamics.py", "kinematics.py", "robot.py", "robot_model.py", "trig.py", "expressions.py",
+                 "steps.py", "mathtext.py", "model_cache.py"):
         h.update((here / name).read_bytes())
     return h.hexdigest()[:16]
 
 
 ENGINE_VERSION = _engine_version()
-CACHE_DIR = Path(os.environ.get("R2LAB_CACHE", Path(__file__).resolve().parents[2] / ".cache")) / "derivations"
 
 Progress = Optional[Callable[[float, str], None]]
 
@@ -91,22 +89,139 @@ class Dynamics:
 
     @property
     def q(self):
-        from .expressions import symbol
         return [symbol(c) for c in self.coordinates]
 
     @property
     def dq(self):
-        from .expressions import symbol
         return [symbol("d" + c) for c in self.coordinates]
 
     @property
     def ddq(self):
-        from .expressions import symbol
         return [symbol("dd" + c) for c in self.coordinates]
 
     def equations(self) -> sp.Matrix:
         """Left-hand side M q'' + c + g + k + friction (equal to the generalized forces)."""
         return (self.M * sp.Matrix(self.ddq) + self.c + self.g + self.spring + self.friction)
+
+    # ------------------------------------------------------------------ stored as data
+    _MATRICES = ("M", "C", "c", "g", "spring", "friction")
+    _VECTOR_TABLES = ("com_positions", "com_velocities", "angular_velocities")
+    _EXPR_TABLES = ("kinetic", "potential")
+
+    def to_data(self) -> dict:
+        """The model as JSON-ready data: texts, lists and integers that index one text of exact
+        expressions (``dump_exact_list``), each distinct expression written once."""
+        table = _ExprTable()
+        par = self.parametrization
+        data = {"robot_name": self.robot_name, "content_hash": self.content_hash,
+                "coordinates": list(self.coordinates), "parameters": list(self.parameters),
+                "christoffel": [table.matrix(Ci) for Ci in self.christoffel],
+                "steps": [[s.title, s.latex, s.text, s.highlight] for s in self.steps],
+                "parametrization": {"Y": table.matrix(par.Y), "a": [table.index(e) for e in par.a],
+                                    "Y_ref": table.matrix(par.Y_ref), "known": list(par.known),
+                                    "unknown": list(par.unknown), "known_terms": table.matrix(par.known_terms),
+                                    "known_terms_ref": table.matrix(par.known_terms_ref)}}
+        for name in self._MATRICES:
+            data[name] = table.matrix(getattr(self, name))
+        for name in self._VECTOR_TABLES:
+            data[name] = [[k, table.matrix(v)] for k, v in getattr(self, name).items()]
+        for name in self._EXPR_TABLES:
+            data[name] = [[k, table.index(v)] for k, v in getattr(self, name).items()]
+        data["expressions"] = [len(table.exprs), dump_exact_list(table.exprs)]
+        return data
+
+    @classmethod
+    def from_data(cls, data: dict) -> "Dynamics":
+        """The model back from ``to_data``'s output, every field type-checked and every expression
+        read through the whitelist (``load_exact_list``); raises ValueError/ExpressionError otherwise."""
+        count, text = _sized(data["expressions"], 2)
+        if type(count) is not int:
+            raise ValueError("stored model: bad expression count")
+        table = _ExprTable(load_exact_list(_text(text), count))
+        par = _mapping(data["parametrization"])
+        parametrization = Parametrization(
+            Y=table.matrix_of(par["Y"]), a=[table.expr_of(e) for e in _list(par["a"])],
+            Y_ref=table.matrix_of(par["Y_ref"]), known=_texts(par["known"]), unknown=_texts(par["unknown"]),
+            known_terms=table.matrix_of(par["known_terms"]), known_terms_ref=table.matrix_of(par["known_terms_ref"]))
+        fields = {name: table.matrix_of(data[name]) for name in cls._MATRICES}
+        for name in cls._VECTOR_TABLES:
+            fields[name] = {_text(k): table.matrix_of(v) for k, v in map(_pair, _list(data[name]))}
+        for name in cls._EXPR_TABLES:
+            fields[name] = {_text(k): table.expr_of(v) for k, v in map(_pair, _list(data[name]))}
+        steps = [Step(_text(t), _text(latex), _text(text), _highlight(h))
+                 for t, latex, text, h in (_sized(s, 4) for s in _list(data["steps"]))]
+        return cls(robot_name=_text(data["robot_name"]), content_hash=_text(data["content_hash"]),
+                   coordinates=_texts(data["coordinates"]), parameters=_texts(data["parameters"]),
+                   christoffel=[table.matrix_of(m) for m in _list(data["christoffel"])],
+                   parametrization=parametrization, steps=steps, **fields)
+
+
+# ------------------------------------------------------------------------------ data helpers
+class _ExprTable:
+    """Distinct expressions of a stored model, referred to by index (equal trees share an entry)."""
+
+    def __init__(self, exprs: Optional[list] = None):
+        self.exprs: list = list(exprs or [])
+        self._index: Dict[sp.Basic, int] = {}
+
+    def index(self, expr) -> int:
+        expr = sp.sympify(expr)
+        found = self._index.get(expr)
+        if found is None or self.exprs[found] != expr or type(self.exprs[found]) is not type(expr):
+            found = self._index[expr] = len(self.exprs)
+            self.exprs.append(expr)
+        return found
+
+    def matrix(self, m: sp.Matrix) -> list:
+        return [m.rows, m.cols, [self.index(e) for e in m]]
+
+    def expr_of(self, value) -> sp.Expr:
+        if type(value) is not int or not 0 <= value < len(self.exprs):
+            raise ValueError("stored model: bad expression index")
+        return self.exprs[value]
+
+    def matrix_of(self, value) -> sp.Matrix:
+        rows, cols, entries = _sized(value, 3)
+        if type(rows) is not int or type(cols) is not int or not 0 <= rows <= 1000 or not 0 <= cols <= 1000 \
+                or len(_list(entries)) != rows * cols:
+            raise ValueError("stored model: bad matrix shape")
+        return sp.Matrix(rows, cols, [self.expr_of(e) for e in entries])
+
+
+def _list(value) -> list:
+    if not isinstance(value, list):
+        raise ValueError("stored model: expected a list")
+    return value
+
+
+def _mapping(value) -> dict:
+    if not isinstance(value, dict):
+        raise ValueError("stored model: expected a mapping")
+    return value
+
+
+def _text(value) -> str:
+    if not isinstance(value, str):
+        raise ValueError("stored model: expected a text")
+    return value
+
+
+def _texts(value) -> List[str]:
+    return [_text(v) for v in _list(value)]
+
+
+def _sized(value, n: int) -> list:
+    if len(_list(value)) != n:
+        raise ValueError(f"stored model: expected {n} items")
+    return value
+
+
+def _pair(value) -> list:
+    return _sized(value, 2)
+
+
+def _highlight(value) -> Dict[str, List[str]]:
+    return {_text(k): _texts(v) for k, v in _mapping(value).items()}
 
 
 # ------------------------------------------------------------------------------ helpers
@@ -313,36 +428,57 @@ def derive(robot: RobotModel, progress: Progress = None, use_cache: bool = True,
     """Derive (or fetch from the memory/disk cache) the dynamic model of a robot.
 
     ``known`` lists the parameters treated as known data in the linear parametrization (default:
-    every parameter of kind length, gravity or angle)."""
-    key_known = ",".join(sorted(known)) if known is not None else "*"
-    key = (robot.content_hash or repr(robot), key_known)
+    every parameter of kind length, gravity or angle). The disk cache (app.core.model_cache)
+    holds data only: exact expression texts read back through the whitelist parser."""
+    key = (robot.content_hash or repr(robot), _known_key(known))
     with _lock:
         if use_cache and key in _memory:
             return _memory[key]
-    path = CACHE_DIR / f"{hashlib.sha256(('|'.join(key) + ENGINE_VERSION).encode()).hexdigest()[:32]}.pkl"
-    if use_cache and robot.content_hash and path.exists():
-        try:
-            with path.open("rb") as fh:
-                dyn = pickle.load(fh)
-            with _lock:
-                _memory[key] = dyn
-            return dyn
-        except Exception:   # a stale or broken cache file is simply recomputed
-            pass
-    dyn = _Deriver(robot, progress, known).run()
+    envelope = _envelope(robot, known)
+    path = cache_entry_path(robot, known)
+    dyn = None
+    if use_cache:
+        payload = model_cache.read_entry(path, envelope)
+        if payload is not None:
+            try:
+                dyn = Dynamics.from_data(payload)
+            except (ExpressionError, NotStorable, KeyError, TypeError, ValueError, RecursionError):
+                dyn = None      # a corrupt or crafted entry: derive again and overwrite it
+    if dyn is None:
+        dyn = _Deriver(robot, progress, known).run()
+        if use_cache:
+            try:
+                model_cache.write_entry(path, envelope, dyn.to_data())
+            except NotStorable:   # something the exact text cannot carry: memory only
+                pass
     if use_cache:
         with _lock:
             _memory[key] = dyn
-        if robot.content_hash:
-            try:
-                CACHE_DIR.mkdir(parents=True, exist_ok=True)
-                tmp = path.with_suffix(f".{os.getpid()}.tmp")
-                with tmp.open("wb") as fh:
-                    pickle.dump(dyn, fh)
-                tmp.replace(path)
-            except OSError:
-                pass
     return dyn
+
+
+def _known_key(known) -> str:
+    return ",".join(sorted(known)) if known is not None else "*"
+
+
+def _envelope(robot: RobotModel, known) -> Dict[str, str]:
+    return {"engine": ENGINE_VERSION, "robot": robot.content_hash, "known": _known_key(known)}
+
+
+def cache_entry_path(robot: RobotModel, known: Optional[Sequence[str]] = None) -> Optional[Path]:
+    """The disk-cache file of a robot's derivation (None for a robot without a file hash or
+    without a usable cache folder)."""
+    if not robot.content_hash:
+        return None
+    return model_cache.entry_path("|".join(_envelope(robot, known).values()))
+
+
+def forget_derivations() -> None:
+    """Empty the in-memory caches of derivations and displayed coefficients (not the disk cache):
+    the next ``derive`` works from scratch or from disk. Used by honest (cold) benchmarks."""
+    with _lock:
+        _memory.clear()
+    _NICE_CACHE.clear()
 
 
 class _Deriver:

@@ -388,3 +388,134 @@ def parse_number(text, what: str = "value") -> float:
     """
     expr = parse_expression(text, allowed_names=(), field=what)
     return float(expr)
+
+
+# ---------------------------------------------------------------------------- exact text
+# The derivation cache stores expressions as text that rebuilds the very same sympy tree (same
+# arguments in the same order, so the same printing), read back through the same ``ast`` whitelist:
+# heads Add, Mul, Pow, Rational, Float and the functions above, names, integers and floats.
+_EXACT_CLASSES = {sp.Add: "Add", sp.Mul: "Mul", sp.Pow: "Pow", sp.sin: "sin", sp.cos: "cos", sp.tan: "tan",
+                  sp.asin: "asin", sp.acos: "acos", sp.atan: "atan", sp.atan2: "atan2", sp.exp: "exp",
+                  sp.log: "log", sp.Abs: "Abs", sp.sign: "sign", sp.Min: "Min", sp.Max: "Max"}
+_EXACT_HEADS = {name: cls for cls, name in _EXACT_CLASSES.items()}
+_EXACT_CONSTANTS = {sp.pi: "pi", sp.E: "E"}
+_EXACT_DEPTH = 200
+
+
+class NotStorable(ValueError):
+    """An expression holds something the exact text cannot carry (it is then not cached)."""
+
+
+def dump_exact(expr: sp.Basic) -> str:
+    """Text that ``load_exact`` turns back into an identical sympy tree.
+
+    >>> x = symbol("x")
+    >>> text = dump_exact(sp.Mul(sp.Rational(1, 2), x + 1, evaluate=False))
+    >>> text
+    'Mul(Rational(1, 2), Add(1, x))'
+    >>> load_exact(text) == sp.Mul(sp.Rational(1, 2), x + 1, evaluate=False)
+    True
+    """
+    out: list = []
+    _dump(sp.sympify(expr), out)
+    return "".join(out)
+
+
+def _dump(expr, out: list) -> None:
+    if expr.is_Symbol:
+        if not (expr.name.isascii() and expr.name.isidentifier()) or expr.name in _EXACT_HEADS \
+                or expr.name in _CONSTANTS or expr.assumptions0 != symbol(expr.name).assumptions0:
+            raise NotStorable(f"symbol {expr.name!r}")
+        out.append(expr.name)
+    elif expr.is_Integer:
+        out.append(str(int(expr)))
+    elif expr.is_Rational:
+        out.append(f"Rational({expr.p}, {expr.q})")
+    elif expr.is_Float:
+        value = float(expr)
+        if expr._prec != 53 or not math.isfinite(value) or sp.Float(value) != expr:
+            raise NotStorable(f"float {expr}")
+        out.append(f"Float({value!r})")
+    elif expr in _EXACT_CONSTANTS:
+        out.append(_EXACT_CONSTANTS[expr])
+    elif type(expr) in _EXACT_CLASSES:
+        out.append(_EXACT_CLASSES[type(expr)] + "(")
+        for i, arg in enumerate(expr.args):
+            if i:
+                out.append(", ")
+            _dump(arg, out)
+        out.append(")")
+    else:
+        raise NotStorable(f"{type(expr).__name__} {excerpt(str(expr), 40)}")
+
+
+def load_exact(text: str, max_length: int = 50_000_000) -> sp.Expr:
+    """Rebuild an expression written by ``dump_exact`` (unevaluated: the tree is taken as written),
+    or raise ExpressionError on anything outside the exact text's whitelist."""
+    return _ExactReader().read(_parse_stored(text, max_length))
+
+
+def dump_exact_list(exprs) -> str:
+    """Several expressions as one text, ``[e1, e2, ...]`` (read back at once by ``load_exact_list``)."""
+    return "[" + ", ".join(dump_exact(e) for e in exprs) + "]"
+
+
+def load_exact_list(text: str, count: int, max_length: int = 50_000_000) -> list:
+    """The ``count`` expressions of a ``dump_exact_list`` text, parsed in one go."""
+    tree = _parse_stored(text, max_length)
+    if not isinstance(tree, ast.List) or len(tree.elts) != count:
+        raise ExpressionError(f"stored expressions: expected a list of {count}")
+    reader = _ExactReader()
+    return [reader.read(node) for node in tree.elts]
+
+
+def _parse_stored(text, max_length: int) -> ast.AST:
+    if not isinstance(text, str) or len(text) > max_length:
+        raise ExpressionError("stored expression: not a text of acceptable length")
+    try:
+        return ast.parse(text, mode="eval").body
+    except (SyntaxError, RecursionError, MemoryError, ValueError):
+        raise ExpressionError("stored expression: not valid") from None
+
+
+class _ExactReader:
+    """Builds the tree of an exact text, one symbol object per name."""
+
+    def __init__(self):
+        self.symbols: dict = {}
+
+    def read(self, node: ast.AST, depth: int = 0) -> sp.Expr:
+        if depth > _EXACT_DEPTH:
+            raise ExpressionError("stored expression: nested too deeply")
+        if isinstance(node, ast.Name):
+            name = node.id
+            if name in _CONSTANTS:
+                return _CONSTANTS[name]
+            sym = self.symbols.get(name)
+            if sym is None:
+                sym = self.symbols[name] = symbol(name)
+            return sym
+        if isinstance(node, ast.Constant) and type(node.value) is int:
+            if node.value.bit_length() > 4 * _MAX_FLOAT_EXPONENT:
+                raise ExpressionError("stored expression: integer too large")
+            return sp.Integer(node.value)
+        if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub) and isinstance(node.operand, ast.Constant):
+            return -self.read(node.operand, depth + 1)
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and not node.keywords:
+            return self.call(node, depth)
+        raise ExpressionError(f"stored expression: '{_shown(node)}' is not allowed")
+
+    def call(self, node: ast.Call, depth: int) -> sp.Expr:
+        head = node.func.id
+        if head == "Rational" and len(node.args) == 2:
+            p, q = (self.read(a, depth + 1) for a in node.args)
+            if not (p.is_Integer and q.is_Integer and q > 1):
+                raise ExpressionError("stored expression: bad rational")
+            return sp.Rational(p, q)
+        if head == "Float" and len(node.args) == 1 and isinstance(node.args[0], ast.Constant) \
+                and type(node.args[0].value) is float and math.isfinite(node.args[0].value):
+            return sp.Float(node.args[0].value)
+        cls = _EXACT_HEADS.get(head)
+        if cls is None or not node.args:
+            raise ExpressionError(f"stored expression: '{_shown(node)}' is not allowed")
+        return cls(*[self.read(a, depth + 1) for a in node.args], evaluate=False)

@@ -1,0 +1,113 @@
+"""The derivation cache on disk: derived models stored as data that cannot run code.
+
+An entry is a JSON file holding the format's name and version, the engine version (a hash of the
+engine's source), the robot file's content hash, the key of the derivation and the model, whose
+expressions are exact texts (``expressions.dump_exact``) read back through the ``ast`` whitelist
+(``expressions.load_exact``). Nothing is unpickled or evaluated. An entry that is foreign, stale or
+corrupt (not JSON, wrong type, wrong version, another robot, garbage, a planted pickle) is ignored,
+and the caller rebuilds and overwrites it.
+
+Location: ``$R2LAB_CACHE`` when set (the tests use it), else ``$XDG_CACHE_HOME/robotics2lab``
+(``~/.cache/robotics2lab`` by default), never the working tree; entries live in its
+``derivations/`` folder, created with mode 0700 and used only when it belongs to the user and no
+one else may write to it.
+
+>>> import tempfile
+>>> path = Path(tempfile.mkdtemp()) / "entry.json"
+>>> write_entry(path, {"robot": "abc"}, {"M": "m1"})
+True
+>>> read_entry(path, {"robot": "abc"})
+{'M': 'm1'}
+>>> read_entry(path, {"robot": "other"}) is None
+True
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import stat
+from pathlib import Path
+from typing import Mapping, Optional
+
+FORMAT = "robotics2lab-derivation"
+FORMAT_VERSION = 1
+MAX_ENTRY_BYTES = 64_000_000
+LAB_FOLDER = "robotics2lab"
+
+
+def cache_root() -> Path:
+    """The lab's cache folder: $R2LAB_CACHE, else $XDG_CACHE_HOME/robotics2lab or ~/.cache/robotics2lab."""
+    override = os.environ.get("R2LAB_CACHE")
+    if override:
+        return Path(override)
+    base = os.environ.get("XDG_CACHE_HOME")
+    base_path = Path(base) if base and Path(base).is_absolute() else Path.home() / ".cache"
+    return base_path / LAB_FOLDER
+
+
+def cache_dir() -> Optional[Path]:
+    """The derivations folder (created with mode 0700), or None when it cannot be used safely:
+    not a real directory, not the user's own, or writable by others."""
+    folder = cache_root() / "derivations"
+    try:
+        folder.mkdir(mode=0o700, parents=True, exist_ok=True)
+        info = os.lstat(folder)
+        if not stat.S_ISDIR(info.st_mode) or info.st_uid != os.getuid():
+            return None
+        if info.st_mode & 0o077:
+            os.chmod(folder, 0o700)
+        return folder
+    except OSError:
+        return None
+
+
+def entry_path(key: str) -> Optional[Path]:
+    """Where the entry of a derivation key lives (a hash of the key), or None without a usable folder."""
+    folder = cache_dir()
+    if folder is None:
+        return None
+    return folder / f"{hashlib.sha256(key.encode()).hexdigest()[:32]}.json"
+
+
+def read_entry(path: Optional[Path], expect: Mapping[str, str]) -> Optional[dict]:
+    """The payload of a valid entry whose envelope matches ``expect`` (engine version, robot hash,
+    key ...), or None for a missing, foreign, stale or corrupt file. Never executes anything."""
+    if path is None:
+        return None
+    try:
+        info = os.lstat(path)
+        if not stat.S_ISREG(info.st_mode) or info.st_size > MAX_ENTRY_BYTES:
+            return None
+        with open(path, "rb") as fh:
+            data = json.loads(fh.read(MAX_ENTRY_BYTES + 1).decode("utf-8"))
+    except (OSError, ValueError, RecursionError):
+        return None
+    if not isinstance(data, dict) or data.get("format") != FORMAT or data.get("version") != FORMAT_VERSION:
+        return None
+    envelope = data.get("envelope")
+    if not isinstance(envelope, dict) or any(envelope.get(k) != v for k, v in expect.items()):
+        return None
+    payload = data.get("payload")
+    return payload if isinstance(payload, dict) else None
+
+
+def write_entry(path: Optional[Path], envelope: Mapping[str, str], payload: dict) -> bool:
+    """Write an entry atomically (a private temporary file renamed over the old one); False when
+    the folder cannot be written (the model then lives in memory only)."""
+    if path is None:
+        return False
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp")
+    try:
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            json.dump({"format": FORMAT, "version": FORMAT_VERSION, "envelope": dict(envelope),
+                       "payload": payload}, fh, separators=(",", ":"))
+        os.replace(tmp, path)
+        return True
+    except OSError:
+        try:
+            tmp.unlink()
+        except OSError:
+            pass
+        return False
