@@ -20,23 +20,27 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
-import numpy as np
 import sympy as sp
 
-from . import model_cache
+from . import compact, model_cache
+from .compact import natural_angles, nice_coefficient, pretty, tidy  # noqa: F401 (pretty: public here too)
 from .expressions import ExpressionError, NotStorable, dump_exact_list, load_exact_list, symbol
 from .kinematics import Kinematics
 from .mathtext import symbols_text
+from .model_cache import ExprTable, as_list, as_mapping, as_text, as_texts, pair, sized
+from .regressor import (_complexity, _independent_columns,  # noqa: F401 (_independent_columns: used by tasks)
+                        _split_columns)
 from .robot import DELTA, KNOWN_KINDS, RobotModel
 from .steps import Step, shorthand_is_clear, to_latex
 from .trig import TrigPoly
+
 
 def _engine_version() -> str:
     """Hash of the engine's own source: any change to it invalidates the disk cache."""
     here = Path(__file__).resolve().parent
     h = hashlib.sha256()
     for name in ("dynamics.py", "kinematics.py", "robot.py", "robot_model.py", "trig.py", "expressions.py",
-                 "steps.py", "mathtext.py", "model_cache.py"):
+                 "steps.py", "mathtext.py", "model_cache.py", "compact.py", "regressor.py"):
         h.update((here / name).read_bytes())
     return h.hexdigest()[:16]
 
@@ -111,7 +115,7 @@ class Dynamics:
     def to_data(self) -> dict:
         """The model as JSON-ready data: texts, lists and integers that index one text of exact
         expressions (``dump_exact_list``), each distinct expression written once."""
-        table = _ExprTable()
+        table = ExprTable()
         par = self.parametrization
         data = {"robot_name": self.robot_name, "content_hash": self.content_hash,
                 "coordinates": list(self.coordinates), "parameters": list(self.parameters),
@@ -134,288 +138,34 @@ class Dynamics:
     def from_data(cls, data: dict) -> "Dynamics":
         """The model back from ``to_data``'s output, every field type-checked and every expression
         read through the whitelist (``load_exact_list``); raises ValueError/ExpressionError otherwise."""
-        count, text = _sized(data["expressions"], 2)
+        count, text = sized(data["expressions"], 2)
         if type(count) is not int:
             raise ValueError("stored model: bad expression count")
-        table = _ExprTable(load_exact_list(_text(text), count))
-        par = _mapping(data["parametrization"])
+        table = ExprTable(load_exact_list(as_text(text), count))
+        par = as_mapping(data["parametrization"])
         parametrization = Parametrization(
-            Y=table.matrix_of(par["Y"]), a=[table.expr_of(e) for e in _list(par["a"])],
-            Y_ref=table.matrix_of(par["Y_ref"]), known=_texts(par["known"]), unknown=_texts(par["unknown"]),
+            Y=table.matrix_of(par["Y"]), a=[table.expr_of(e) for e in as_list(par["a"])],
+            Y_ref=table.matrix_of(par["Y_ref"]), known=as_texts(par["known"]), unknown=as_texts(par["unknown"]),
             known_terms=table.matrix_of(par["known_terms"]), known_terms_ref=table.matrix_of(par["known_terms_ref"]))
         fields = {name: table.matrix_of(data[name]) for name in cls._MATRICES}
         for name in cls._VECTOR_TABLES:
-            fields[name] = {_text(k): table.matrix_of(v) for k, v in map(_pair, _list(data[name]))}
+            fields[name] = {as_text(k): table.matrix_of(v) for k, v in map(pair, as_list(data[name]))}
         for name in cls._EXPR_TABLES:
-            fields[name] = {_text(k): table.expr_of(v) for k, v in map(_pair, _list(data[name]))}
-        steps = [Step(_text(t), _text(latex), _text(text), _highlight(h))
-                 for t, latex, text, h in (_sized(s, 4) for s in _list(data["steps"]))]
-        return cls(robot_name=_text(data["robot_name"]), content_hash=_text(data["content_hash"]),
-                   coordinates=_texts(data["coordinates"]), parameters=_texts(data["parameters"]),
-                   christoffel=[table.matrix_of(m) for m in _list(data["christoffel"])],
+            fields[name] = {as_text(k): table.expr_of(v) for k, v in map(pair, as_list(data[name]))}
+        steps = [Step(as_text(t), as_text(latex), as_text(text), _highlight(h))
+                 for t, latex, text, h in (sized(s, 4) for s in as_list(data["steps"]))]
+        return cls(robot_name=as_text(data["robot_name"]), content_hash=as_text(data["content_hash"]),
+                   coordinates=as_texts(data["coordinates"]), parameters=as_texts(data["parameters"]),
+                   christoffel=[table.matrix_of(m) for m in as_list(data["christoffel"])],
                    parametrization=parametrization, steps=steps, **fields)
 
 
-# ------------------------------------------------------------------------------ data helpers
-class _ExprTable:
-    """Distinct expressions of a stored model, referred to by index (equal trees share an entry)."""
-
-    def __init__(self, exprs: Optional[list] = None):
-        self.exprs: list = list(exprs or [])
-        self._index: Dict[sp.Basic, int] = {}
-
-    def index(self, expr) -> int:
-        expr = sp.sympify(expr)
-        found = self._index.get(expr)
-        if found is None or self.exprs[found] != expr or type(self.exprs[found]) is not type(expr):
-            found = self._index[expr] = len(self.exprs)
-            self.exprs.append(expr)
-        return found
-
-    def matrix(self, m: sp.Matrix) -> list:
-        return [m.rows, m.cols, [self.index(e) for e in m]]
-
-    def expr_of(self, value) -> sp.Expr:
-        if type(value) is not int or not 0 <= value < len(self.exprs):
-            raise ValueError("stored model: bad expression index")
-        return self.exprs[value]
-
-    def matrix_of(self, value) -> sp.Matrix:
-        rows, cols, entries = _sized(value, 3)
-        if type(rows) is not int or type(cols) is not int or not 0 <= rows <= 1000 or not 0 <= cols <= 1000 \
-                or len(_list(entries)) != rows * cols:
-            raise ValueError("stored model: bad matrix shape")
-        return sp.Matrix(rows, cols, [self.expr_of(e) for e in entries])
-
-
-def _list(value) -> list:
-    if not isinstance(value, list):
-        raise ValueError("stored model: expected a list")
-    return value
-
-
-def _mapping(value) -> dict:
-    if not isinstance(value, dict):
-        raise ValueError("stored model: expected a mapping")
-    return value
-
-
-def _text(value) -> str:
-    if not isinstance(value, str):
-        raise ValueError("stored model: expected a text")
-    return value
-
-
-def _texts(value) -> List[str]:
-    return [_text(v) for v in _list(value)]
-
-
-def _sized(value, n: int) -> list:
-    if len(_list(value)) != n:
-        raise ValueError(f"stored model: expected {n} items")
-    return value
-
-
-def _pair(value) -> list:
-    return _sized(value, 2)
-
-
 def _highlight(value) -> Dict[str, List[str]]:
-    return {_text(k): _texts(v) for k, v in _mapping(value).items()}
+    return {as_text(k): as_texts(v) for k, v in as_mapping(value).items()}
 
 
-# ------------------------------------------------------------------------------ helpers
 def _tp(expr) -> TrigPoly:
     return TrigPoly.from_expr(expr)
-
-
-def _expr(tp: TrigPoly, angles=(), masses=()) -> sp.Expr:
-    return pretty(tp, angles, masses)
-
-
-_NICE_CACHE: Dict[Tuple[sp.Expr, tuple], sp.Expr] = {}
-
-
-def nice_coefficient(coeff, masses=()) -> sp.Expr:
-    """A coefficient as a student writes it: grouped by masses, each group factored,
-    e.g. D**2*m3 - 2*D*L3*m3 + L3**2*m3 + I3 -> I3 + m3*(D - L3)**2 (shortest form kept)."""
-    key = (coeff, tuple(masses))
-    hit = _NICE_CACHE.get(key)
-    if hit is not None:
-        return hit
-    if not isinstance(coeff, sp.Add):
-        return coeff
-    plain = sp.factor_terms(coeff)
-    expanded = sp.expand(coeff)
-    present = [m for m in masses if expanded.has(m)]
-    out = plain
-    if present and isinstance(expanded, sp.Add) and len(expanded.args) > 2:
-        grouped = sp.collect(expanded, present, func=sp.factor)
-        if sp.count_ops(grouped) < sp.count_ops(plain):
-            out = grouped
-    if len(_NICE_CACHE) > 20000:
-        _NICE_CACHE.clear()
-    _NICE_CACHE[key] = out
-    return out
-
-
-def pretty(tp: TrigPoly, angles: Sequence[Dict[sp.Symbol, int]] = (), masses=()) -> sp.Expr:
-    """A compact, student-like sympy expression of a canonical trigonometric polynomial.
-
-    Terms are grouped by basis function. When double angles appear (spatial robots), the terms are
-    also rewritten as products of sines and cosines of the ``angles`` (the links' own angles, e.g.
-    q2 and q2 + q3), reduced with sin^2 + cos^2 = 1, and the shorter form is kept:
-    cos(q3) + cos(2 q2 + q3) becomes 2 cos(q2) cos(q2 + q3)."""
-    base = sp.Add(*[nice_coefficient(c, masses) * TrigPoly.basis_function(k) for k, c in tp.terms.items()])
-    natural = [dict(a) for a in angles]
-    if not natural or all(not freq or {s: n for s, n in freq} in natural for (freq, _k) in tp.terms):
-        return base
-    alt = _product_form(tp, list(angles), masses)
-    if alt is None:
-        return base
-    return alt if sp.count_ops(alt) < sp.count_ops(base) else base
-
-
-def tidy(expr, angles=(), masses=()) -> sp.Expr:
-    """The shorter of the grouped form and the canonical (pretty) form of a kinematic expression."""
-    grouped = collect_trig(expr)
-    if not expr.has(sp.sin, sp.cos):
-        return grouped
-    canon = pretty(TrigPoly.from_expr(expr), angles, masses)   # grouped form is already the product form
-    return canon if sp.count_ops(canon) < sp.count_ops(grouped) else grouped
-
-
-def _product_form(tp: TrigPoly, angles, masses=()):
-    """Rewrite every term over products of cos/sin of ``angles`` (None when impossible)."""
-    m = len(angles)
-    C = sp.symbols(f"_C0:{m}")
-    S = sp.symbols(f"_S0:{m}")
-    vecs = [dict(a) for a in angles]
-
-    def as_dict(freq):
-        return {s: n for s, n in freq}
-
-    def find(freq):
-        """Express freq as +-angle_i (+-angle_j): returns list of (index, sign)."""
-        target = as_dict(freq)
-        for i, a in enumerate(vecs):
-            if a == target:
-                return [(i, 1)]
-        for i, a in enumerate(vecs):
-            for j in range(i, m):
-                b = vecs[j]
-                for sb in (1, -1):
-                    keys = set(a) | set(b) | set(target)
-                    if all(a.get(k, 0) + sb * b.get(k, 0) == target.get(k, 0) for k in keys):
-                        return [(i, 1), (j, sb)]
-                    if all(-a.get(k, 0) + sb * b.get(k, 0) == target.get(k, 0) for k in keys):
-                        return [(i, -1), (j, sb)]
-        return None
-
-    # polynomial in (C_0..C_m-1, S_0..S_m-1) as {exponents: coefficient}
-    def mul(p, q):
-        out = {}
-        for e1, c1 in p.items():
-            for e2, c2 in q.items():
-                e = tuple(a + b for a, b in zip(e1, e2))
-                out[e] = out.get(e, 0) + c1 * c2
-        return out
-
-    def unit(index, sign=1):
-        e = [0] * (2 * m)
-        e[index] = 1
-        return {tuple(e): sign}
-
-    zero = tuple([0] * (2 * m))
-    total: Dict[tuple, sp.Expr] = {}
-    for (freq, kind), coeff in tp.terms.items():
-        if not freq:
-            total[zero] = total.get(zero, 0) + coeff
-            continue
-        parts = find(freq)
-        if parts is None:
-            return None
-        c, s_ = {zero: 1}, {}   # cos and sin of the running sum
-        for idx, sign in parts:
-            ci, si = unit(idx), unit(m + idx, sign)
-            c, s_ = _padd(mul(c, ci), mul(s_, si), -1), _padd(mul(s_, ci), mul(c, si), 1)
-        for e, v in (c if kind == "c" else s_).items():
-            total[e] = total.get(e, 0) + coeff * v
-    back = [sp.cos(_angle_expr(v)) for v in vecs] + [sp.sin(_angle_expr(v)) for v in vecs]
-    best = None
-    for reduce_sin in (True, False):
-        poly = dict(total)
-        for i in range(m):
-            x, y = (m + i, i) if reduce_sin else (i, m + i)   # x^2 -> 1 - y^2
-            poly = _reduce_square(poly, x, y)
-        out = sp.Add(*[nice_coefficient(sp.expand(c), masses) * sp.Mul(*[b ** k for b, k in zip(back, e)])
-                       for e, c in poly.items() if sp.expand(c) != 0])
-        if best is None or sp.count_ops(out) < sp.count_ops(best):
-            best = out
-    return best
-
-
-def _padd(p, q, sign):
-    out = dict(p)
-    for e, c in q.items():
-        out[e] = out.get(e, 0) + sign * c
-    return out
-
-
-def _reduce_square(poly, x, y):
-    """Replace X**2 by 1 - Y**2 in a polynomial {exponents: coefficient} (X, Y: sin/cos of one
-    angle, at positions x and y of the exponent tuples)."""
-    out: Dict[tuple, sp.Expr] = {}
-    for e, c in poly.items():
-        k, r = divmod(e[x], 2)
-        for j in range(k + 1):   # (1 - Y^2)^k = sum_j binom(k, j) (-1)^j Y^(2j)
-            f = list(e)
-            f[x] = r
-            f[y] = e[y] + 2 * j
-            f = tuple(f)
-            out[f] = out.get(f, 0) + c * sp.binomial(k, j) * (-1) ** j
-    return out
-
-
-def _angle_expr(vec):
-    return sp.Add(*[n * s for s, n in vec.items()])
-
-
-def collect_trig(expr) -> sp.Expr:
-    """Group an expanded expression by its sines and cosines: -l1 s1 dq1 - d2 s12 (dq1 + dq2)."""
-    expr = sp.expand(expr)
-    atoms = sorted(expr.atoms(sp.sin, sp.cos), key=sp.default_sort_key)
-    if not atoms:
-        return sp.factor_terms(expr)
-    return sp.collect(expr, atoms, func=sp.factor_terms)
-
-
-def _matrix(rows, angles=(), masses=()) -> sp.Matrix:
-    return sp.Matrix([[_expr(e, angles, masses) for e in row] for row in rows])
-
-
-def natural_angles(kin: Kinematics) -> List[Dict[sp.Symbol, int]]:
-    """The links' own angles (merged rotation angles of the body frames, e.g. q2 + q3), as
-    frequency vectors; used to write spatial results with products like cos(q2) cos(q2 + q3)."""
-    coords = set(kin.q)
-    out: List[Dict[sp.Symbol, int]] = []
-    for frames in kin.frames.values():
-        rots = frames["body"].rotations or []
-        for _axis, angle in rots:
-            angle = sp.expand(angle)
-            vec = {}
-            ok = True
-            for term in sp.Add.make_args(angle):
-                coeff, rest = term.as_coeff_Mul()
-                if rest in coords and coeff.is_Integer:
-                    vec[rest] = vec.get(rest, 0) + int(coeff)
-                elif not term.free_symbols:
-                    continue
-                else:
-                    ok = False
-            if ok and vec and vec not in out and {s: -n for s, n in vec.items()} not in out:
-                out.append(vec)
-    return out
 
 
 # ------------------------------------------------------------------------------ derivation
@@ -478,7 +228,7 @@ def forget_derivations() -> None:
     the next ``derive`` works from scratch or from disk. Used by honest (cold) benchmarks."""
     with _lock:
         _memory.clear()
-    _NICE_CACHE.clear()
+    compact.forget()
 
 
 class _Deriver:
@@ -495,9 +245,12 @@ class _Deriver:
         if unknown_names:
             raise ValueError(f"unknown parameter(s) {sorted(unknown_names)} in 'known'")
         self.known = list(known)
-        self.angles = natural_angles(self.kin)
+        # products of sines and cosines of the links' angles shorten only double angles, which
+        # robots whose revolute axes are all parallel do not have
+        self.angles = [] if self.kin.parallel_revolute_axes() else natural_angles(self.kin)
         self.masses = [p.symbol for p in robot.parameters.values() if p.kind == "mass"]
         self.short_trig = shorthand_is_clear(robot.parameters)
+        self._shown: Dict[frozenset, sp.Expr] = {}
 
     def quadratic_form(self, Mi) -> sp.Expr:
         """1/2 dq^T Mi dq written term by term: 1/2 m_jj dq_j^2 + m_jk dq_j dq_k."""
@@ -510,10 +263,15 @@ class _Deriver:
         return sp.Add(*out)
 
     def X(self, tp: TrigPoly) -> sp.Expr:
-        return pretty(tp, self.angles, self.masses)
+        """The displayed form of a canonical polynomial (computed once per distinct polynomial)."""
+        key = frozenset(tp.terms.items())
+        shown = self._shown.get(key)
+        if shown is None:
+            shown = self._shown[key] = pretty(tp, self.angles, self.masses)
+        return shown
 
     def MX(self, rows) -> sp.Matrix:
-        return _matrix(rows, self.angles, self.masses)
+        return sp.Matrix([[self.X(e) for e in row] for row in rows])
 
     def L(self, expr) -> str:
         return to_latex(expr, self.robot.coordinates, short_trig=self.short_trig)
@@ -746,129 +504,3 @@ class _Deriver:
                                sp.Matrix([self.X(t) for t in y0]), sp.Matrix([self.X(t) for t in y0_ref]))
 
 
-def _complexity(vec: List[TrigPoly]) -> Tuple[int, int]:
-    terms = sum(len(sp.Add.make_args(c)) for tp in vec for c in tp.terms.values())
-    return (terms, sum(sp.count_ops(c) for tp in vec for c in tp.terms.values()))
-
-
-def _split_columns(rows: List[TrigPoly], unknown: List[sp.Symbol]):
-    """tau_i = sum_psi Y_i,psi * psi + y0_i with psi monomials of the unknown parameters; returns
-    the columns [(psi, [TrigPoly per row])] and y0 (the terms free of unknown parameters)."""
-    columns: Dict[sp.Expr, List[Dict]] = {}
-    order: List[sp.Expr] = []
-    n = len(rows)
-    for i, tp in enumerate(rows):
-        for key, coeff in tp.terms.items():
-            if unknown:
-                poly = sp.Poly(coeff, *unknown)
-                items = poly.terms()
-                gens = poly.gens
-            else:
-                items, gens = [((), coeff)], ()
-            for monom, c in items:
-                psi = sp.Mul(*[g ** e for g, e in zip(gens, monom)])
-                if psi not in columns:
-                    columns[psi] = [dict() for _ in range(n)]
-                    order.append(psi)
-                columns[psi][i][key] = columns[psi][i].get(key, 0) + c
-    y0 = [TrigPoly(columns[sp.Integer(1)][i]) if sp.Integer(1) in columns else TrigPoly() for i in range(n)]
-    return [(psi, [TrigPoly(columns[psi][i]) for i in range(n)]) for psi in order if psi != 1], y0
-
-
-def _independent_columns(cols, known):
-    """Greedy basis of the column space (over functions of the known parameters); dependent columns
-    add their parameter monomial, times the exact combination coefficients, to the basis coefficients."""
-    rng = np.random.default_rng(12345)
-    syms = sorted(set().union(*[set().union(*[_free(tp) for tp in vec]) for _, vec in cols]) if cols else set(),
-                  key=lambda s: s.name)
-    known_syms = [s for s in syms if s.name in known]
-    sample_syms = [s for s in syms if s.name not in known]
-    known_vals = {s: float(rng.uniform(0.5, 1.5)) for s in known_syms}
-    npts = 6 + 2 * len(cols)
-    samples = {s: rng.uniform(-1.5, 1.5, npts) for s in sample_syms}
-    env = {**{s: np.full(npts, v) for s, v in known_vals.items()}, **samples}
-    entries = [tp.to_expr() for _, vec in cols for tp in vec]
-    f = sp.lambdify(syms, entries, "numpy")   # one compiled function for every column
-    values = f(*[env[s] for s in syms]) if syms else entries
-    values = [np.broadcast_to(np.asarray(v, dtype=float), (npts,)) for v in values]
-    n_rows = len(cols[0][1]) if cols else 0
-    numeric = [np.concatenate(values[k * n_rows:(k + 1) * n_rows]) for k in range(len(cols))]
-    basis, basis_num, coeffs = [], [], []
-    for (psi, vec), num in zip(cols, numeric):
-        if basis_num:
-            A = np.column_stack(basis_num)
-            lam, *_ = np.linalg.lstsq(A, num, rcond=None)
-            resid = np.linalg.norm(A @ lam - num)
-            scale = max(1.0, np.linalg.norm(num))
-            dependent = resid < 1e-8 * scale
-        else:
-            dependent = np.linalg.norm(num) < 1e-12
-            if dependent:
-                continue
-        if not dependent:
-            basis.append((psi, vec))
-            basis_num.append(num)
-            coeffs.append(psi)
-            continue
-        lam_exact = _exact_combination([b[1] for b in basis], vec, known_syms, lam)
-        for b, l in enumerate(lam_exact):
-            if l != 0:
-                coeffs[b] = coeffs[b] + l * psi
-    return basis, coeffs
-
-
-def _free(tp: TrigPoly):
-    out = set()
-    for (freq, _), c in tp.terms.items():
-        out |= c.free_symbols
-        out |= {s for s, _ in freq}
-    return out
-
-
-def _exact_combination(basis_vecs, target, known_syms, lam_numeric):
-    """Exact lambda (functions of the known parameters) with target = sum lambda_b basis_b."""
-    k = len(basis_vecs)
-    lam = sp.symbols(f"lambda0:{k}")
-    known_set = set(known_syms)
-    eqs = {}
-    for i in range(len(target)):
-        combo = TrigPoly()
-        for b in range(k):
-            if basis_vecs[b][i].terms:
-                combo = combo + basis_vecs[b][i].scale(lam[b])
-        diff = (combo - target[i]).expand()
-        for key, coeff in diff.terms.items():
-            other = sorted((coeff.free_symbols - known_set - set(lam)), key=lambda s: s.name)
-            if other:
-                poly = sp.Poly(coeff, *other)
-                for _m, c in poly.terms():
-                    eqs[sp.expand(c)] = True
-            else:
-                eqs[sp.expand(coeff)] = True
-    values = _solve_linear(list(eqs), list(lam), known_syms)
-    return values
-
-
-def _solve_linear(eqs, unknowns, known_syms):
-    """Exact solution of a consistent, possibly overdetermined linear system whose coefficients are
-    functions of the known parameters: pick independent equations numerically, solve them exactly,
-    and verify the rest."""
-    A, b = sp.linear_eq_to_matrix(eqs, unknowns)
-    rng = np.random.default_rng(7)
-    point = {s: float(rng.uniform(0.5, 1.5)) for s in known_syms}
-    An = np.array(A.subs(point), dtype=float) if point else np.array(A, dtype=float)
-    rows: List[int] = []
-    for r in range(An.shape[0]):
-        trial = rows + [r]
-        if np.linalg.matrix_rank(An[trial]) == len(trial):
-            rows = trial
-        if len(rows) == len(unknowns):
-            break
-    if len(rows) < len(unknowns):
-        raise RuntimeError("internal error: the combination of regressor columns is not unique")
-    sol = A.extract(rows, list(range(len(unknowns)))).LUsolve(b.extract(rows, [0]))
-    sol = [sp.factor(sp.cancel(v)) for v in sol]
-    residual = (A * sp.Matrix(sol) - b).applyfunc(lambda e: sp.cancel(e))
-    if any(e != 0 for e in residual):
-        raise RuntimeError("internal error: regressor columns combine inconsistently")
-    return sol

@@ -116,6 +116,19 @@ class Kinematics:
         frame = self.frames[name]["joint"]
         return frame.p.applyfunc(_tidy), (frame.R * sp.Matrix(self.robot.body(name).joint.axis)).applyfunc(_tidy)
 
+    def parallel_revolute_axes(self) -> bool:
+        """True when every revolute joint turns about one fixed direction of the base (planar
+        chains, SCARA arms): the links' angles are then sums of the coordinates.
+
+        >>> from app.core.robot import load_robot
+        >>> Kinematics(load_robot("planar_2r")).parallel_revolute_axes()
+        True
+        """
+        directions = [self.joint_axis(b.name)[1] for b in self.robot.bodies if b.joint.type == "revolute"]
+        if any(e.free_symbols for d in directions for e in d):
+            return False
+        return all(d.cross(directions[0]).is_zero_matrix for d in directions[1:])
+
     def point_jacobian(self, body: Optional[str], local: sp.Matrix) -> sp.Matrix:
         """Linear-velocity Jacobian (3 x n) of a point fixed in a body."""
         p = self.point_position(body, local)

@@ -28,7 +28,9 @@ import json
 import os
 import stat
 from pathlib import Path
-from typing import Mapping, Optional
+from typing import Dict, List, Mapping, Optional
+
+import sympy as sp
 
 FORMAT = "robotics2lab-derivation"
 FORMAT_VERSION = 1
@@ -111,3 +113,68 @@ def write_entry(path: Optional[Path], envelope: Mapping[str, str], payload: dict
         except OSError:
             pass
         return False
+
+
+# ------------------------------------------------------------------------------ typed readers
+class ExprTable:
+    """Distinct expressions of a stored model, referred to by index (equal trees share an entry):
+    ``index``/``matrix`` when writing, ``expr_of``/``matrix_of`` (checked) when reading."""
+
+    def __init__(self, exprs: Optional[list] = None):
+        self.exprs: list = list(exprs or [])
+        self._index: Dict[sp.Basic, int] = {}
+
+    def index(self, expr) -> int:
+        expr = sp.sympify(expr)
+        found = self._index.get(expr)
+        if found is None or self.exprs[found] != expr or type(self.exprs[found]) is not type(expr):
+            found = self._index[expr] = len(self.exprs)
+            self.exprs.append(expr)
+        return found
+
+    def matrix(self, m: sp.Matrix) -> list:
+        return [m.rows, m.cols, [self.index(e) for e in m]]
+
+    def expr_of(self, value) -> sp.Expr:
+        if type(value) is not int or not 0 <= value < len(self.exprs):
+            raise ValueError("stored model: bad expression index")
+        return self.exprs[value]
+
+    def matrix_of(self, value) -> sp.Matrix:
+        rows, cols, entries = sized(value, 3)
+        if type(rows) is not int or type(cols) is not int or not 0 <= rows <= 1000 or not 0 <= cols <= 1000 \
+                or len(as_list(entries)) != rows * cols:
+            raise ValueError("stored model: bad matrix shape")
+        return sp.Matrix(rows, cols, [self.expr_of(e) for e in entries])
+
+
+def as_list(value) -> list:
+    if not isinstance(value, list):
+        raise ValueError("stored model: expected a list")
+    return value
+
+
+def as_mapping(value) -> dict:
+    if not isinstance(value, dict):
+        raise ValueError("stored model: expected a mapping")
+    return value
+
+
+def as_text(value) -> str:
+    if not isinstance(value, str):
+        raise ValueError("stored model: expected a text")
+    return value
+
+
+def as_texts(value) -> List[str]:
+    return [as_text(v) for v in as_list(value)]
+
+
+def sized(value, n: int) -> list:
+    if len(as_list(value)) != n:
+        raise ValueError(f"stored model: expected {n} items")
+    return value
+
+
+def pair(value) -> list:
+    return sized(value, 2)

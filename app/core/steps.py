@@ -151,6 +151,14 @@ def to_latex(expr, coordinates=None, short_trig: bool = True, **kwargs) -> str:
     """
     coords = list(coordinates) if coordinates is not None else list(_COORDS)
     expr = rounded(sp.sympify(expr))
+    if isinstance(expr, sp.MatrixBase) and coords and not kwargs and expr.rows * expr.cols > 1:
+        # entry by entry, each distinct entry printed once: the text sympy gives for the matrix
+        rows = [" & ".join(_entry_latex(expr[r, c], tuple(coords), short_trig) for c in range(expr.cols))
+                for r in range(expr.rows)]
+        body = r"\\".join(rows)
+        if expr.cols > 10:
+            return r"\left(\begin{array}{" + "c" * expr.cols + "}" + body + r"\end{array}\right)"
+        return r"\left(\begin{matrix}" + body + r"\end{matrix}\right)"
     trig_names = {}
     if short_trig:
         if isinstance(expr, sp.MatrixBase):
@@ -167,3 +175,16 @@ def to_latex(expr, coordinates=None, short_trig: bool = True, **kwargs) -> str:
     names.update(trig_names)
     kwargs.setdefault("mat_delim", "(")
     return sp.latex(expr, symbol_names=names, **kwargs)
+
+
+_ENTRY_LATEX: Dict[tuple, str] = {}
+
+
+def _entry_latex(entry, coords: tuple, short_trig: bool) -> str:
+    key = (entry, coords, short_trig)
+    text = _ENTRY_LATEX.get(key)
+    if text is None:
+        if len(_ENTRY_LATEX) > 50000:
+            _ENTRY_LATEX.clear()
+        text = _ENTRY_LATEX[key] = to_latex(entry, coords, short_trig)
+    return text

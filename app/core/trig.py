@@ -16,9 +16,88 @@ cos(q2)
 from __future__ import annotations
 
 from collections import defaultdict
-from typing import Dict, Iterable, Tuple
+from fractions import Fraction
+from typing import Dict, Iterable, List, Optional, Tuple
 
 import sympy as sp
+
+def polynomial_terms(expr) -> Optional[List[Tuple[sp.Rational, Dict[sp.Symbol, int]]]]:
+    """[(coefficient, {symbol: exponent})] of an expanded sum of monomials with rational
+    coefficients, or None for anything else.
+
+    >>> from app.core.expressions import symbol
+    >>> x, y = symbol("x"), symbol("y")
+    >>> sorted((str(c), sorted((str(s), e) for s, e in p.items())) for c, p in polynomial_terms(2*x**2*y - y/3))
+    [('-1/3', [('y', 1)]), ('2', [('x', 2), ('y', 1)])]
+    """
+    out = []
+    for term in sp.Add.make_args(expr):
+        c, rest = term.as_coeff_Mul()
+        if not c.is_Rational:
+            return None
+        powers: Dict[sp.Symbol, int] = {}
+        for f in sp.Mul.make_args(rest):
+            if f is sp.S.One:
+                continue
+            if f.is_Symbol:
+                powers[f] = powers.get(f, 0) + 1
+            elif f.is_Pow and f.base.is_Symbol and f.exp.is_Integer and f.exp > 0:
+                powers[f.base] = powers.get(f.base, 0) + int(f.exp)
+            else:
+                return None
+        out.append((c, powers))
+    return out
+
+
+class Sparse(dict):
+    """A polynomial {monomial: Fraction} (monomial: sorted (symbol, exponent) pairs) with exact
+    rational coefficients: sums and integer scalings without sympy's expression machinery."""
+
+    __slots__ = ()
+
+    @staticmethod
+    def of(expr) -> Optional["Sparse"]:
+        parts = polynomial_terms(expr)
+        if parts is None:
+            return None
+        out = Sparse()
+        for c, powers in parts:
+            key = tuple(sorted(powers.items(), key=lambda item: item[0].name))
+            out[key] = out.get(key, 0) + Fraction(c.p, c.q)
+        return Sparse({k: v for k, v in out.items() if v})
+
+    def __add__(self, other):
+        if not isinstance(other, dict):
+            if other == 0:
+                return self
+            return NotImplemented
+        out = Sparse(self)
+        for k, v in other.items():
+            total = out.get(k, 0) + v
+            if total:
+                out[k] = total
+            else:
+                out.pop(k, None)
+        return out
+
+    __radd__ = __add__
+
+    def __mul__(self, factor):
+        if not isinstance(factor, (int, Fraction)):
+            return NotImplemented
+        return Sparse({k: v * factor for k, v in self.items()} if factor else {})
+
+    __rmul__ = __mul__
+
+    def __ne__(self, other):          # "!= 0" tests a polynomial for being non-zero
+        return bool(self) if isinstance(other, int) and other == 0 else dict.__ne__(self, other)
+
+    __hash__ = None
+
+    def to_expr(self) -> sp.Expr:
+        return sp.Add(*[sp.Rational(v.numerator, v.denominator) * sp.Mul(*[s ** e for s, e in k])
+                        for k, v in self.items()])
+
 
 Frequency = Tuple[Tuple[sp.Symbol, int], ...]   # sorted (angle symbol, integer multiple) pairs
 Key = Tuple[Frequency, str]                      # (frequency, "c" or "s")
