@@ -17,6 +17,7 @@ app.core.robot_model.ParameterError: m1: a mass must not be negative (got -1)
 from __future__ import annotations
 
 import hashlib
+import json
 import math
 from pathlib import Path
 from typing import Dict, List, Mapping, Optional, Sequence, Tuple
@@ -31,6 +32,7 @@ from .robot_model import (  # noqa: F401  (re-exported: the robot module is the 
     DELTA, GROUPS, KNOWN_KINDS, NON_NEGATIVE_KINDS, PARAMETER_KINDS, RESERVED_NAMES, Body, Damper,
     Joint, Limits, Parameter, ParameterError, Point, RobotModel, Spring, Transform, check_parameter,
     elementary_rotation)
+from .urdf import is_urdf, robot_data_from_urdf
 
 ROBOTS_DIR = Path(__file__).resolve().parent.parent / "robots"
 
@@ -642,7 +644,7 @@ def robot_path(name_or_path: str | Path) -> Path:
     if not str(name_or_path).strip():
         raise RobotFileError("empty robot name (give a shipped robot's name or a path to a robot file)")
     candidate = Path(name_or_path)
-    if candidate.suffix in (".yaml", ".yml", ".json") or candidate.exists():
+    if candidate.suffix in (".yaml", ".yml", ".json", ".urdf") or candidate.exists():
         if not candidate.exists():
             raise RobotFileError(f"{candidate}: no such file")
         return candidate
@@ -661,6 +663,11 @@ def load_robot(name_or_path: str | Path) -> RobotModel:
 
 
 def load_robot_text(text: str, source: str = "<robot>") -> RobotModel:
+    """A robot from the text of a robot file (YAML) or of a URDF file (app/core/urdf.py)."""
+    if is_urdf(text, source):
+        data = robot_data_from_urdf(text, source)
+        digest = hashlib.sha256(json.dumps(data, sort_keys=True).encode("utf-8")).hexdigest()
+        return parse_robot(data, source, digest)
     data = load_yaml(text, source, RobotFileError)
     digest = hashlib.sha256(text.encode("utf-8")).hexdigest()
     return parse_robot(data, source, digest)
