@@ -162,7 +162,7 @@ def test_a_hand_written_urdf_reads_as_a_robot(hand_written):
     """Costs about 3 s of CPU: the symbolic model of a spatial 3-DOF arm with full inertia tensors."""
     robot = load_robot(hand_written)
     assert robot.coordinates == ("q1", "q2", "q3")
-    assert [b.name for b in robot.bodies] == ["base_link", "upper-arm", "forearm", "hand"]
+    assert [b.name for b in robot.bodies] == ["base_link", "upper_arm", "forearm", "hand"]   # link upper-arm
     assert [b.joint.type for b in robot.bodies] == ["fixed", "revolute", "prismatic", "revolute"]
     for name, value in (("m_upper_arm", 2.0), ("l_forearm_x", 0.4), ("c_upper_arm_x", 0.2),
                         ("I_hand_xy", 0.0001), ("fv_upper_arm", 0.2), ("l_upper_arm_z", 0.3)):

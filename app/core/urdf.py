@@ -465,7 +465,10 @@ class _Reader:
             self.walk(child, self.body_name(child), np.eye(4))
 
     def body_name(self, link: str) -> str:
-        return link if link != "base" else "base_"
+        """The robot-file body of a link: its identifier (``upper-arm`` -> ``upper_arm``), ``base_``
+        for a link named base (the robot file's name of the fixed frame)."""
+        ident = self.identifiers[link]
+        return ident if ident != "base" else "base_"
 
     def point(self, link: str, body: Optional[str], T: np.ndarray) -> None:
         ident = self.identifiers[link]
