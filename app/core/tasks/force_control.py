@@ -223,7 +223,7 @@ def _steady_state(ctx, sp_, loop, S_u, measured, reference, actuated):
     sp_.answer("F_e", F_e)
     sp_.answer("e_F", e_F)
     sp_.answer("u_e", u_e[actuated[0]] if len(actuated) == 1 else u_e)
-    parts = [rf"{_latex(ctx, c)}_e = {_latex(ctx, values[c])}" for c in loop.q + loop.z]
+    parts = [rf"{{{_latex(ctx, c)}}}_e = {_latex(ctx, values[c])}" for c in loop.q + loop.z]
     ctx.step("Equilibrium and force error",
              r",\quad ".join(parts + [rf"F_e = {_latex(ctx, F_e)}", rf"F_d - F_e = {_latex(ctx, e_F)}"]),
              "Velocities and accelerations set to zero" + (", and the integrated error stops changing." if loop.z else "."))
