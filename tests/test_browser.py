@@ -119,6 +119,10 @@ def test_model_panel_shows_typeset_math_and_values(lab, browser):
         wait_until(lambda: first.inner_text() != text_before, what="numeric M to change with q2")
         M = session.numeric.M(session.q)
         assert f"{M[0, 0]:.4g}" in first.inner_text().replace("\n", " ")
+        with page.expect_download() as download:          # the model as a LaTeX fragment
+            page.get_by_role("button", name="Download the model (LaTeX)").click()
+        tex = open(download.value.path(), encoding="utf-8").read()
+        assert tex.startswith("% Dynamic model of Planar 2R") and "m_{22} = I_{2} + d_{2}^{2} m_{2}" in tex
     finally:
         page.context.close()
 

@@ -221,6 +221,10 @@ def test_open_an_exercise_and_reveal_its_steps(lab, browser):
             click(page, "Download the solution (Markdown)")
         text = open(download.value.path(), encoding="utf-8").read()
         assert text.startswith("# 2004-03-25#1") and "$$" in text and "Kinematics of link1" in text
+        with page.expect_download() as download:
+            click(page, "Download the solution (LaTeX)")
+        tex = open(download.value.path(), encoding="utf-8").read()
+        assert tex.startswith("% Exercise 2004-03-25#1") and r"\item \textbf{Kinematics of link1}" in tex
         # another robot picked by hand: the exercise waits, a button brings its robot back
         shots.field(page, "Robot").click()
         page.get_by_role("option", name="Planar 2R arm (vertical plane)", exact=True).click()

@@ -1,4 +1,7 @@
-"""``python -m app derive ROBOT [--json] [--known l1,g0] [--steps]``: the symbolic model of a robot.
+"""``python -m app derive ROBOT [--json] [--known l1,g0] [--steps] [--latex FILE]``: the symbolic model of a robot.
+
+``--latex FILE`` writes the model as a LaTeX fragment (amsmath; app/core/tex.py; ``-``: standard
+output), with the derivation steps when ``--steps`` is given too.
 
 JSON output (a stable contract): one object with keys
   "robot", "q" (coordinate names), "dq" (velocity symbol names), "params" (parameter names),
@@ -26,6 +29,8 @@ def add_arguments(p):
     p.add_argument("--known", default=None,
                    help="comma-separated parameters treated as known in the regressor (default: lengths, gravity, angles)")
     p.add_argument("--steps", action="store_true", help="also print the derivation steps")
+    p.add_argument("--latex", metavar="FILE",
+                   help="write the model as a LaTeX fragment (amsmath) to FILE ('-': standard output)")
     p.add_argument("--no-cache", action="store_true", help="derive from scratch")
 
 
@@ -52,6 +57,23 @@ def model_json(robot, dyn) -> dict:
     }
 
 
+def write_text(path: str, text: str, option: str, quiet: bool = False) -> int:
+    """Write ``text`` to the file ``path`` (``-``: standard output) and say so unless ``quiet``;
+    exit code 0."""
+    from app.core.errors import UserError
+    if path == "-":
+        sys.stdout.write(text)
+        return 0
+    try:
+        with open(path, "w", encoding="utf-8") as fh:
+            fh.write(text)
+    except OSError as exc:
+        raise UserError(f"{option} {path}: {exc.strerror or exc}") from None
+    if not quiet:
+        print(f"wrote {path}")
+    return 0
+
+
 def run(args) -> int:
     from app.core.dynamics import derive
     from app.core.errors import UserError
@@ -66,6 +88,9 @@ def run(args) -> int:
         if bad:
             raise UserError(f"--known: unknown parameter(s) {bad}; the robot has {list(robot.parameters)}")
     dyn = derive(robot, use_cache=not args.no_cache, known=known)
+    if args.latex:
+        from app.core.tex import model_tex
+        return write_text(args.latex, model_tex(robot, dyn, steps=args.steps), "--latex")
     if args.json:
         json.dump(model_json(robot, dyn), sys.stdout)
         sys.stdout.write("\n")

@@ -1,4 +1,4 @@
-"""``python -m app solve EXERCISE [--json] [--out FILE.md] [--set name=value ...]``
+"""``python -m app solve EXERCISE [--json] [--out FILE.md] [--latex FILE.tex] [--set name=value ...]``
 
 EXERCISE is a shipped exercise id (e.g. 2004-03-25#1) or a path to an exercise file (which may
 name its robot file by a path relative to itself). Prints the steps and the final answers.
@@ -9,7 +9,8 @@ that concern that step), "answers" (name -> string that ``sympy.sympify`` parses
 nested lists of those; full precision) and "notes" (every note, in the file's order).
 
 Without ``--json`` the terminal gets every step: title, explanation and formulas in Unicode math
-(matrices laid out over several lines), numbers rounded to meaningful digits.
+(matrices laid out over several lines), numbers rounded to meaningful digits. ``--latex FILE``
+writes the solution as a LaTeX fragment (amsmath; app/core/tex.py; ``-``: standard output).
 """
 from __future__ import annotations
 
@@ -27,6 +28,8 @@ def add_arguments(p):
     p.add_argument("exercise", help="exercise id (see `python -m app exercises`) or a path to an exercise file")
     p.add_argument("--json", action="store_true", help="print one JSON object (stable format)")
     p.add_argument("--out", help="write the solution as Markdown (with LaTeX) to this file")
+    p.add_argument("--latex", metavar="FILE",
+                   help="write the solution as a LaTeX fragment (amsmath) to FILE ('-': standard output)")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="change a given value (a variant); repeatable")
 
@@ -74,6 +77,13 @@ def run(args) -> int:
     if args.out:
         with open(args.out, "w", encoding="utf-8") as fh:
             fh.write(sol.markdown())
+    if args.latex:
+        from app.commands.derive import write_text
+        from app.core.tex import solution_tex
+        variant = dict((part.strip() for part in item.split("=", 1)) for item in args.set)
+        write_text(args.latex, solution_tex(sol, variant), "--latex", quiet=args.json)
+        if not args.json:
+            return 0
     if args.json:
         out = {"id": ex.id, "title": ex.title, "robot": sol.robot.name,
                "steps": [{**s.as_dict(), "notes": sol.step_notes(k)} for k, s in enumerate(sol.steps)],

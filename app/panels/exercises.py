@@ -6,7 +6,7 @@ solution. "Next" reveals the solution step by step, each typeset, with the links
 arrows (velocities, forces), joint values against their bounds, points and paths of the step
 drawn in 3D. The numbers of the exercise can be changed (a variant): the solution is recomputed
 in the background, and a bad value is refused with a message while the last good solution
-stays. The solution downloads as Markdown with LaTeX.
+stays. The solution downloads as Markdown with LaTeX, or as a LaTeX fragment (app/core/tex.py).
 
 ``session.state["exercises"]["panel"]`` is the tab's ``ExercisesPanel``; ``open(id)``,
 ``show(k)`` and ``solve_variant({name: text})`` drive it from outside (tests, screenshots).
@@ -23,6 +23,7 @@ import numpy as np
 from app.core.errors import UserError
 from app.core.exercise import EXERCISES_DIR, Exercise, load_exercise
 from app.core.expressions import ExpressionError, parse_expression
+from app.core.tex import solution_tex
 from app.panels.exercise_scene import HintDrawer
 from app.panels.exercise_variant import SOLUTIONS, Field, fields, format_value, parse_field
 from app.panels.exercise_view import answers_html, notes_html, question_html, step_html, variant_html
@@ -149,6 +150,8 @@ class ExercisesPanel:
         self.answers = gui.add_html("")
         self.download = gui.add_button("Download the solution (Markdown)", disabled=True,
                                        hint="steps and answers as Markdown with LaTeX ($$ ... $$)")
+        self.download_tex = gui.add_button("Download the solution (LaTeX)", disabled=True,
+                                           hint="steps as a .tex fragment (amsmath)")
         self._earlier_html = gui.add_html("")
 
         for dropdown, key in ((self.exam, "exam"), (self.topic, "topic"), (self.robot, "robot")):
@@ -157,6 +160,7 @@ class ExercisesPanel:
         self.nav.on_click(self._navigate)
         self.variant_buttons.on_click(self._variant_clicked)
         self.download.on_click(self._download)
+        self.download_tex.on_click(self._download_tex)
         self.back_button.on_click(lambda _: self._ensure_robot())
         self._render()
 
@@ -436,7 +440,7 @@ class ExercisesPanel:
 
     def _render_locked(self) -> None:
         ex, sol, k = self.exercise, self.solution, self.index
-        self.download.disabled = sol is None
+        self.download.disabled = self.download_tex.disabled = sol is None
         if ex is None:
             self.status.content = ""
             self.card.content = mathml.label_html("Choose an exercise above.")
@@ -480,11 +484,21 @@ class ExercisesPanel:
             md = md.replace("\n## Solution\n", f"\n## Numbers of this variant\n\n{lines}\n\n## Solution\n", 1)
         return md
 
+    def _stem(self) -> str:
+        return self.exercise.id.replace("#", "_") + ("_variant" if self.state.get("solved_values") else "")
+
     def _download(self, event) -> None:
         if self.solution is None:
             return
-        stem = self.exercise.id.replace("#", "_") + ("_variant" if self.state.get("solved_values") else "")
-        event.client.send_file_download(f"{stem}.md", self.markdown().encode("utf-8"), save_immediately=True)
+        event.client.send_file_download(f"{self._stem()}.md", self.markdown().encode("utf-8"), save_immediately=True)
+
+    def _download_tex(self, event) -> None:
+        if self.solution is None:
+            return
+        solved = self.state.get("solved_values") or {}
+        variant = {key.split(":", 1)[1]: format_value(v) for key, v in solved.items()}
+        event.client.send_file_download(f"{self._stem()}.tex", solution_tex(self.solution, variant).encode("utf-8"),
+                                        save_immediately=True)
 
 
 def _valid(value: str, options: List[str]) -> str:

@@ -8,6 +8,7 @@ import numpy as np
 import sympy as sp
 
 from app.core.steps import shorthand_is_clear
+from app.core.tex import model_tex
 from app.viewer import mathml
 
 TITLE = "Model"
@@ -106,6 +107,11 @@ def build(session) -> None:
             expanded=False, note=f"τ = Y a with a minimal set of dynamic coefficients (known data: {known}).")
     section("Adaptive regressor Y(q, q̇, q̇r, q̈r)", lambda: blocks(r"Y_r", par.Y_ref, "y"), expanded=False,
             note="Y_r a = M q̈r + C(q, q̇) q̇r + g (+ springs, friction): the Slotine-Li regressor.")
+
+    download = gui.add_button("Download the model (LaTeX)", hint="a .tex fragment (amsmath) of the formulas above "
+                              "and the derivation steps")
+    download.on_click(lambda event: event.client.send_file_download(
+        f"{robot.name}_model.tex", model_tex(robot, dyn, steps=True).encode("utf-8"), save_immediately=True))
 
     def refresh(*_):
         for handle, fn in updaters:
