@@ -73,10 +73,14 @@ def _scalar_same(a, b, tol=1e-9) -> bool:
 def same(expected, computed, tol: float = 1e-9, definitions=None) -> bool:
     """True when the computed answer equals the expected one (symbolic, numeric or yes/no).
 
-    >>> same(True, True), same(False, 0.0)
-    (True, False)
+    >>> same(True, True), same(False, 0.0), same([True, False], [True, False])
+    (True, False, True)
     """
     flags = (bool, np.bool_)
+    if isinstance(expected, (list, tuple)) and any(isinstance(x, flags) for x in expected):   # yes/no per item
+        items = list(computed) if isinstance(computed, (list, tuple, np.ndarray)) else None
+        return items is not None and len(items) == len(expected) and all(
+            same(x, y, tol, definitions) for x, y in zip(expected, items))
     if isinstance(expected, flags) or isinstance(computed, flags):
         return isinstance(expected, flags) and isinstance(computed, flags) and bool(expected) == bool(computed)
     e = as_sympy(expected, definitions)

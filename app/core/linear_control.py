@@ -304,6 +304,26 @@ def _solve_linear(eqs, unknowns, allow_underdetermined=False) -> Optional[Dict[s
     return None
 
 
+def second_order_gains(error: sp.Expr, t: sp.Symbol) -> Tuple[sp.Expr, sp.Expr]:
+    """(k_P, k_D) with e'' + k_D e' + k_P e = 0 for every t, for a prescribed error transient e(t)
+    (a solution of some such equation: sums of exponentials, times powers of t for double poles).
+
+    >>> t = symbol("t")
+    >>> second_order_gains(symbol("e0") * (2*sp.exp(-5*t) - sp.exp(-10*t)), t)
+    (50, 15)
+    """
+    kp, kd = sp.Symbol("k_P"), sp.Symbol("k_D")
+    residual = error.diff(t, 2) + kd * error.diff(t) + kp * error
+    samples = [sp.expand(residual.subs(t, v)) for v in (0, 1, 2, 3)]
+    sol = sp.solve(samples, [kp, kd], dict=True)
+    if len(sol) != 1 or kp not in sol[0] or kd not in sol[0]:
+        raise LinearLoopError("no gains make this transient a solution of e'' + k_D e' + k_P e = 0")
+    gains = sp.simplify(sol[0][kp]), sp.simplify(sol[0][kd])
+    if sp.simplify(residual.subs({kp: gains[0], kd: gains[1]})) != 0:
+        raise LinearLoopError("this transient does not solve e'' + k_D e' + k_P e = 0 for any constant gains")
+    return gains
+
+
 # ====================================================================== numbers
 def max_real_part(coefficients: Sequence[float]) -> float:
     """Largest real part of the roots of a polynomial (coefficients, highest power first).

@@ -26,16 +26,19 @@ Task kinds (options -> answers):
   the new coordinates, in order), or ``forward`` (new coordinate -> function of q: an expression,
   ``{point, component}`` or ``{angle: body}``; inverted in closed form). Answers: ``T``
   (dq/dtheta), ``q_of_new`` (f), ``J_forward`` (with ``forward``), ``M_new`` (T^T M(f(theta)) T),
-  ``g_new`` (T^T g), ``force_map`` (T^T: tau_theta = T^T tau_q).
+  ``g_new`` (T^T g), ``force_map`` (T^T: tau_theta = T^T tau_q), ``force_map_inverse`` (T^-T, when T
+  is invertible: tau_q = T^-T tau_theta).
 - ``point_kinematics``: a point of the robot (a named point, or ``{body, at}`` whose position may
   hold free symbols such as a contact abscissa). Options: ``point``, ``components`` (default
   [0, 1]: x, y), ``force`` (a force at the point, list of expressions), ``name`` (answer label,
   default the point's name or "point"). Answers: ``p_<name>``, ``J_<name>``, ``det_<name>``
   (square J), ``minors_<name>`` (determinants of J without column k, when J has one column more
   than rows), ``tau_<name>`` (J^T F).
-- ``cartesian_inertia``: M_p = J^-T M J^-1 of a point with a square Jacobian. Options: ``point``,
-  ``components``, ``at`` (configuration for the numeric values, parameters from ``given``).
-  Answers: ``J``, ``det_J``, ``M_p``, ``M_at``, ``M_p_at``, ``M_p_inv_at``.
+- ``cartesian_inertia``: M_p = J^-T M J^-1 of a point with a square Jacobian, or
+  M_p = (J M^-1 J^T)^-1 at ``at`` for a redundant task (fewer components than coordinates). Options:
+  ``point``, ``components``, ``at`` (configuration for the numeric values, parameters from
+  ``given``). Answers: ``J``, ``det_J`` and ``M_p`` (square J), ``J_at``, ``M_at``, ``M_p_at``,
+  ``M_p_inv_at``, ``M_p_eig_at`` (eigenvalues, largest first).
 - ``rest_acceleration``: accelerations from rest, q'' = M^-1 (u - g), and of a point, p'' = J q''.
   Options: ``inputs`` (names of the generalized forces, one per coordinate; default tau1..tauN),
   ``point`` (optional), ``components``. Answers: ``ddq_rest``, ``pdd_rest``, ``pdd_rest_norm2``.
@@ -685,6 +688,11 @@ def coordinate_map_task(ctx, spec):
     a.answer("M_new", M_new)
     a.answer("g_new", g_new)
     a.answer("force_map", T.T)
+    if not _is_zero(a.tidy(T.det())):
+        inv = a.tidy_matrix(T.T.inv())
+        a.ctx.step("Forces on the old coordinates", rf"\tau_q = T^{{-T}} \tau_\theta = {a.L(inv)}\,\tau_\theta",
+                   "Inverting the virtual-work relation ($T$ is invertible).")
+        a.answer("force_map_inverse", inv)
 
 
 def _forward_entry(a: _Analysis, name: str, raw) -> sp.Expr:
@@ -778,19 +786,25 @@ def cartesian_inertia_task(ctx, spec):
     """Cartesian inertia of a point, M_p = J^-T M J^-1 (see the module docstring)."""
     a = _Analysis(ctx, spec, "cartesian_inertia")
     body, label, p, J = _point_data(a)
-    if J.rows != J.cols:
-        raise a.fail("components", f"the Jacobian is {J.rows}x{J.cols}: M_p needs a square Jacobian")
-    det = a.tidy(J.det())
-    Jinv = J.inv()
-    Mp = sp.Matrix(J.rows, J.cols, lambda i, j: sp.factor(sp.cancel(sp.together((Jinv.T * a.M * Jinv)[i, j]))))
-    Mp = a.tidy_matrix(Mp)
-    a.ctx.step(f"Jacobian of {label}", rf"p = {a.L(p)},\quad J = {a.L(J)},\quad \det J = {a.L(det)}",
-               r"$M_p$ exists away from the singularities $\det J = 0$.", bodies=[body] if body else [])
-    a.ctx.step("Cartesian inertia", rf"M_p(q) = J^{{-T}} M J^{{-1}} = {a.L(Mp)}",
-               r"Kinetic energy in task coordinates: $T = \frac{1}{2} \dot p^T M_p \dot p$.", bodies=[b.name for b in a.robot.bodies])
+    if J.rows > J.cols:
+        raise a.fail("components", f"the Jacobian is {J.rows}x{J.cols}: more task components than coordinates")
     a.answer("J", J)
-    a.answer("det_J", det)
-    a.answer("M_p", Mp)
+    if J.rows == J.cols:
+        det = a.tidy(J.det())
+        Jinv = J.inv()
+        Mp = sp.Matrix(J.rows, J.cols, lambda i, j: sp.factor(sp.cancel(sp.together((Jinv.T * a.M * Jinv)[i, j]))))
+        Mp = a.tidy_matrix(Mp)
+        a.ctx.step(f"Jacobian of {label}", rf"p = {a.L(p)},\quad J = {a.L(J)},\quad \det J = {a.L(det)}",
+                   r"$M_p$ exists away from the singularities $\det J = 0$.", bodies=[body] if body else [])
+        a.ctx.step("Cartesian inertia", rf"M_p(q) = J^{{-T}} M J^{{-1}} = {a.L(Mp)}",
+                   r"Kinetic energy in task coordinates: $T = \frac{1}{2} \dot p^T M_p \dot p$.", bodies=[b.name for b in a.robot.bodies])
+        a.answer("det_J", det)
+        a.answer("M_p", Mp)
+    else:
+        a.ctx.step(f"Jacobian of {label}", rf"p = {a.L(p)},\quad J = {a.L(J)}",
+                   r"A redundant task: $M_p = (J M^{-1} J^T)^{-1}$, the inertia felt at the point when the joints move "
+                   "with the dynamically consistent inverse (it exists where $J$ has full row rank).",
+                   bodies=[body] if body else [])
     at = a.configuration("at")
     if at:
         values = {**a.parameter_values(), **at}
@@ -799,14 +813,21 @@ def cartesian_inertia_task(ctx, spec):
             raise a.fail("at", f"give every coordinate (missing {sorted(s.name for s in missing)})")
         Mv = np.array(a.M.subs(values), dtype=float)
         Jv = np.array(J.subs(values), dtype=float)
-        Jiv = np.linalg.inv(Jv)
-        Mpv = Jiv.T @ Mv @ Jiv
+        Mp_inv = Jv @ np.linalg.solve(Mv, Jv.T)
+        if np.linalg.matrix_rank(Mp_inv) < Jv.shape[0]:
+            raise a.fail("at", "the Jacobian loses rank there: no Cartesian inertia")
+        Mpv = np.linalg.inv(Mp_inv)
+        eig = np.sort(np.linalg.eigvalsh((Mpv + Mpv.T) / 2))[::-1]
         a.ctx.step("At the given configuration",
-                   rf"M(q^*) = {a.L(sp.Matrix(np.round(Mv, 6)))},\quad M_p(q^*) = {a.L(sp.Matrix(np.round(Mpv, 6)))}",
+                   rf"J(q^*) = {a.L(sp.Matrix(np.round(Jv, 6)))},\quad M(q^*) = {a.L(sp.Matrix(np.round(Mv, 6)))},\quad "
+                   rf"M_p(q^*) = (J M^{{-1}} J^T)^{{-1}} = {a.L(sp.Matrix(np.round(Mpv, 6)))},\quad "
+                   rf"\lambda(M_p) = {a.L(sp.Matrix(np.round(eig, 4)).T)}",
                    r"With the exercise's numbers; a force $F$ at rest gives $\ddot p = M_p^{-1} F$.")
+        a.answer("J_at", Jv)
         a.answer("M_at", Mv)
         a.answer("M_p_at", Mpv)
-        a.answer("M_p_inv_at", np.linalg.inv(Mpv))
+        a.answer("M_p_inv_at", Mp_inv)
+        a.answer("M_p_eig_at", eig)
 
 
 @task("rest_acceleration")

@@ -24,7 +24,8 @@ M q'' + c + g + k(q) + F_v q' = S u, which must be linear (masses on lines, spri
   substitutions), ``closed_loop`` (M q'' + n - S u, = 0), ``equilibrium`` and ``<coordinate>_e``
   (rest, with the integral state ``<integral>_e``), ``F_e`` (measured force there), ``e_F``
   (reference - F_e), ``u_e`` (input there), ``steady_velocity`` (free motion at constant speed when
-  the positions of some coordinates do not appear), ``P`` (open loop, measured force over input),
+  the positions of some coordinates do not appear), ``P`` (open loop, measured force over input;
+  ``P_num`` its numerator over the denominator ``open_loop_poly``),
   ``H_<coordinate>`` (coordinate over input), ``W`` (closed loop, measured force over reference),
   ``W_e`` (1 - W), ``G`` (W / (1 - W): the loop transfer function of a unity feedback),
   ``open_loop_poly``, ``char_poly``, ``routh_column``, ``conditions`` (first-column entries
@@ -244,6 +245,7 @@ def _transfer_functions(ctx, sp_, loop, lhs, S_u_open, u_syms, measured, referen
         num_p, den_p = plant.transfer(measured)
         P = num_p / den_p
         sp_.answer("P", P)
+        sp_.answer("P_num", num_p)
         sp_.answer("open_loop_poly", den_p)
         texts.append(rf"P(s) = \frac{{F_m(s)}}{{u(s)}} = \frac{{{_latex(ctx, num_p)}}}{{{_latex(ctx, den_p)}}}")
         for q in loop.q:

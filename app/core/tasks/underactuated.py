@@ -1,6 +1,7 @@
-"""Underactuated and constrained mechanical systems: partial feedback linearization, linearization
-about an equilibrium, steady rotations, reduced dynamics under holonomic constraints, changes of
-coordinates and accelerations at a state. Everything is computed from the robot's Lagrangian model
+"""Underactuated mechanical systems: partial feedback linearization, linearization about an
+equilibrium, steady rotations, changes of coordinates and accelerations at a state (reduced
+dynamics under holonomic constraints: ``constrained``). Everything is computed from the robot's
+Lagrangian model
 
     M(q) q'' + n(q, q') = S u,     n = c + g + k + F_v q' (+ Coulomb),
 
@@ -27,22 +28,6 @@ Task kinds (options -> answers):
   the others), ``zero`` (coordinates whose generalized force must vanish; default the passive
   ones). Answers: ``torque`` (generalized forces needed along the rotation, as functions of the
   constant coordinates), ``equilibria`` (one row per solution of the ``zero`` rows, sorted).
-- ``reduced_dynamics``: holonomic constraint h(q) = 0. Options: ``constraint`` (expression, or a
-  list of expressions), ``D`` (rows completing A = dh/dq to a nonsingular matrix; the
-  pseudo-velocity is v = D(q) q'), or ``pseudo_velocity: {point, direction}`` (v = speed of a
-  named point along a direction), ``point`` (a named point whose coordinates px, py, pz may appear
-  in the constraint), ``passive`` (unactuated coordinates), ``evaluate`` (answers at one state:
-  ``state``, or ``place: {point, at, guess}`` solved by numeric inverse kinematics; the desired
-  pseudo-acceleration ``dv`` or ``timing: {profile: cubic|quintic, length, duration, t}``).
-  Answers: ``h``, ``A``, ``A_dot``, ``A_pinv`` (A#_M = M^-1 A^T (A M^-1 A^T)^-1), ``P``
-  (I - A^T A#^T), ``lambda`` (the multiplier with M q'' + n = S u + A^T lambda, inputs u1..),
-  ``D``, ``v``, ``D_dot``, ``E``, ``F`` ([A; D]^-1 = [E F]), ``M_v`` (F^T M F), ``n_v``
-  (F^T (n - M (E A' + F D') q')), ``B_v`` (F^T S; the reduced model is M_v v' + n_v = B_v u),
-  ``qdd`` (q'' = F v' - (E A' + F D') q'), ``u_track`` (M q'' + n: the input giving v' with zero
-  constraint force when all joints are actuated), ``u_reduced`` (B_v^-1 (M_v v' + n_v)), and at
-  the evaluated state ``q_at``, ``M_at``, ``g_at``, ``F_at``, ``u_track_at``, ``u_reduced_at``,
-  ``Delta``, ``dv_at``. With ``numeric_data: true`` the exercise's numbers that are not robot
-  parameters (e.g. the points of a segment) are substituted after A(q), keeping the rest readable.
 - ``coordinate_change``: linear change of coordinates p = J q. Options: ``map`` (new coordinate ->
   expression of q), or ``torque_map`` (the generalized forces as expressions of the actuator
   torques tau1..taun: then p is the set of coordinates on which the torques work component-wise)
@@ -69,7 +54,6 @@ from __future__ import annotations
 
 from typing import Dict, List, Sequence
 
-import numpy as np
 import sympy as sp
 
 from ..coordinates import in_coordinates
@@ -211,6 +195,27 @@ class Model:
         for k, i in enumerate(cols):
             S[i, k] = 1
         return S
+
+
+_PROFILES = {   # rest-to-rest timing laws s(sigma) / Delta, sigma = t / T in [0, 1]
+    "cubic": lambda s: 3 * s ** 2 - 2 * s ** 3,
+    "quintic": lambda s: 10 * s ** 3 - 15 * s ** 4 + 6 * s ** 5,
+}
+
+
+def _given_values(ctx) -> Dict[sp.Symbol, sp.Expr]:
+    """The exercise's numbers (robot parameters and task data) as a substitution."""
+    out = {}
+    for k, v in ctx.given.items():
+        out[symbol(k)] = ctx.expr(v, f"given.{k}")
+    return out
+
+
+def _time_derivative(mat: sp.Matrix, q, dq) -> sp.Matrix:
+    out = sp.zeros(*mat.shape)
+    for qk, dk in zip(q, dq):
+        out += mat.diff(qk) * dk
+    return out
 
 
 def _inverse(mat: sp.Matrix) -> sp.Matrix:
@@ -470,220 +475,6 @@ def steady_rotation_task(ctx, spec):
              "compatible with the rotation (real only where the arguments are in range).",
              bodies=m.bodies_of(free))
     ctx.answer("equilibria", sp.Matrix(rows))
-
-
-# ====================================================================== constrained dynamics
-_PROFILES = {   # rest-to-rest timing laws s(sigma) / Delta, sigma = t / T in [0, 1]
-    "cubic": lambda s: 3 * s ** 2 - 2 * s ** 3,
-    "quintic": lambda s: 10 * s ** 3 - 15 * s ** 4 + 6 * s ** 5,
-}
-
-
-def _point_position(m: Model, name: str, where: str) -> sp.Matrix:
-    if name not in m.robot.points:
-        raise ExerciseError(f"{where}: the robot {m.robot.name} has no point '{name}' "
-                            f"(points: {', '.join(m.robot.points) or 'none'})")
-    pt = m.robot.points[name]
-    return Kinematics(m.robot).point_position(pt.body, pt.position)
-
-
-def _given_values(ctx) -> Dict[sp.Symbol, sp.Expr]:
-    """The exercise's numbers (robot parameters and task data) as a substitution."""
-    out = {}
-    for k, v in ctx.given.items():
-        out[symbol(k)] = ctx.expr(v, f"given.{k}")
-    return out
-
-
-def _time_derivative(mat: sp.Matrix, q, dq) -> sp.Matrix:
-    out = sp.zeros(*mat.shape)
-    for qk, dk in zip(q, dq):
-        out += mat.diff(qk) * dk
-    return out
-
-
-@task("reduced_dynamics")
-def reduced_dynamics_task(ctx, spec):
-    """Dynamics under holonomic constraints (see the module docstring)."""
-    from ..expressions import ExpressionError, parse_expression
-    m = Model(ctx)
-    n = len(m.coords)
-    extra = {}
-    if spec.get("point"):
-        pos = _point_position(m, spec["point"], "reduced_dynamics.point")
-        extra = {"px": pos[0], "py": pos[1], "pz": pos[2]}
-    raw = spec.get("constraint")
-    if raw is None:
-        raise ExerciseError("reduced_dynamics.constraint: give h(q) = 0 (an expression or a list)")
-    raw = raw if isinstance(raw, list) else [raw]
-    try:
-        h = sp.Matrix([parse_expression(c, extra=extra) for c in raw])
-    except ExpressionError as exc:
-        raise ExerciseError(f"reduced_dynamics.constraint: {exc}") from None
-    h = m.tidy_matrix(h)
-    k = h.rows
-    A = m.tidy_matrix(h.jacobian(m.q))
-    if all(TrigPoly.from_expr(e).is_zero() for e in A):
-        raise ExerciseError("reduced_dynamics.constraint: h does not depend on the coordinates")
-    A_dot = m.tidy_matrix(_time_derivative(A, m.q, m.dq))
-    passive = m.indices(spec["passive"], "reduced_dynamics.passive") if "passive" in spec else \
-        [i for i, a in enumerate(m.robot.actuated) if not a]
-    actuated = [i not in passive for i in range(n)]
-    S = m.selection(actuated)
-    u = sp.Matrix([symbol(f"u{i + 1}") for i in range(S.cols)])
-    hb = m.bodies_of(range(n))
-    ctx.step("Constraint", rf"h(q) = {m.L(h)} = 0,\quad A(q) = \frac{{\partial h}}{{\partial q}} = {m.L(A)},\quad "
-             rf"\dot A = {m.L(A_dot)}",
-             r"The constraint holds at all times, so $A(q)\, \dot q = 0$ and $A \ddot q + \dot A \dot q = 0$.", bodies=hb)
-    ctx.answer("h", h)
-    ctx.answer("A", A)
-    ctx.answer("A_dot", A_dot)
-    data = {}
-    if spec.get("numeric_data"):
-        data = {k_: sp.nsimplify(v, rational=True) for k_, v in _given_values(ctx).items()
-                if k_.name not in m.robot.parameters}
-        A, A_dot = A.subs(data), A_dot.subs(data)
-        ctx.step("Numbers of the constraint", rf"A(q) = {m.L(A)}",
-                 f"The data of the constraint ({symbols_text(s_.name for s_ in data)}) are substituted from here on.")
-    # M^-1 = adj(M) / det(M): the determinant cancels in A# and lambda
-    adj, det_M = m.M.adjugate(), m.M.det()
-    AMA_inv = _inverse((A * adj * A.T).applyfunc(sp.expand))
-    A_pinv = m.tidy_matrix(adj * A.T * AMA_inv)
-    P = m.tidy_matrix(sp.eye(n) - A.T * A_pinv.T)
-    lam = m.tidy_matrix(-AMA_inv * (A * adj * (S * u - m.n) + det_M * A_dot * m.dq))
-    ctx.step("Multiplier and projection",
-             rf"M\ddot q + n = S u + A^T\lambda,\quad A^\#_M = M^{{-1}}A^T(AM^{{-1}}A^T)^{{-1}} = {m.L(A_pinv)},\quad "
-             rf"\lambda = {m.L(lam)}",
-             "Solve for the constraint force; substituting it gives the dynamically consistent "
-             r"projection $M \ddot q = (I - A^T A^{\#T}_M)(S u - n) - M A^\#_M \dot A \dot q$.")
-    ctx.answer("A_pinv", A_pinv)
-    ctx.answer("P", P)
-    ctx.answer("lambda", lam)
-    D = None
-    if "D" in spec:
-        rows = spec["D"]
-        rows = rows if rows and isinstance(rows[0], list) else [rows]
-        D = sp.Matrix([[ctx.expr(e, "reduced_dynamics.D") for e in row] for row in rows]).subs(data)
-    elif "pseudo_velocity" in spec:
-        pv = spec["pseudo_velocity"]
-        if not isinstance(pv, dict) or "direction" not in pv:
-            raise ExerciseError("reduced_dynamics.pseudo_velocity: expected {point: NAME, direction: [x, y, z]}")
-        pos = _point_position(m, pv.get("point", spec.get("point")), "reduced_dynamics.pseudo_velocity.point")
-        d = [ctx.expr(e, "reduced_dynamics.pseudo_velocity.direction").subs(data) for e in pv["direction"]]
-        d = sp.Matrix(d + [0] * (3 - len(d)))
-        D = m.tidy_matrix((d.T / sp.sqrt((d.T * d)[0])) * pos.jacobian(m.q))
-    if D is None:
-        return
-    if D.cols != n or D.rows + k != n:
-        raise ExerciseError(f"reduced_dynamics.D: needs {n - k} row(s) of {n} entries")
-    AD = A.col_join(D)
-    det = m.tidy(AD.det())
-    if TrigPoly.from_expr(sp.fraction(sp.together(det))[0]).is_zero():
-        raise ExerciseError("reduced_dynamics.D: [A; D] is singular")
-    EF = m.tidy_matrix(AD.adjugate() / AD.det())
-    E, F = EF[:, :k], EF[:, k:]
-    D_dot = m.tidy_matrix(_time_derivative(D, m.q, m.dq))
-    vn = ["v"] if n - k == 1 else [f"v{i + 1}" for i in range(n - k)]
-    v = sp.Matrix([symbol(x) for x in vn])
-    dv = sp.Matrix([symbol("d" + x) for x in vn])
-    W = E * A_dot + F * D_dot
-    M_v = m.tidy_matrix(F.T * m.M * F)
-    n_v = m.tidy_matrix(F.T * (m.n - m.M * W * m.dq))
-    B_v = m.tidy_matrix(F.T * S)
-    qdd = m.tidy_matrix(F * dv - W * m.dq)
-    u_track = m.tidy_matrix(m.M * qdd + m.n)
-    ctx.step("Pseudo-velocities", rf"v = D(q)\dot q = {m.L(D * m.dq)},\quad \begin{{pmatrix}}A\\ D\end{{pmatrix}}^{{-1}} = "
-             rf"\begin{{pmatrix}}E & F\end{{pmatrix}} = {m.L(EF)}",
-             rf"$\det \begin{{pmatrix}}A\\ D\end{{pmatrix}} = {m.L(det)}$: then $\dot q = F(q)\, v$ and "
-             r"$\ddot q = F \dot v - (E \dot A + F \dot D)\, \dot q$.")
-    ctx.step("Reduced dynamics", rf"F^T M F\,\dot v + F^T\left(n - M(E\dot A + F\dot D)\dot q\right) = F^T S u,\quad "
-             rf"F^T M F = {m.L(M_v)},\quad F^T S = {m.L(B_v)}",
-             r"Premultiplying by $F^T$ removes the constraint force ($F^T A^T = 0$): "
-             f"{n - k} equation(s) in the pseudo-velocities.", bodies=hb)
-    ctx.step("Input for a desired pseudo-acceleration", rf"u = M(q)\left(F\dot v - (E\dot A + F\dot D)\dot q\right) + n = {m.L(u_track)}",
-             r"With every joint actuated this input realizes $\dot v$ and needs no constraint force ($\lambda = 0$).",
-             joints=hb)
-    ctx.answer("D", D)
-    ctx.answer("v", m.tidy_matrix(D * m.dq))
-    ctx.answer("D_dot", D_dot)
-    ctx.answer("E", E)
-    ctx.answer("F", F)
-    ctx.answer("M_v", M_v)
-    ctx.answer("n_v", n_v)
-    ctx.answer("B_v", B_v)
-    ctx.answer("qdd", qdd)
-    ctx.answer("u_track", u_track)
-    u_red = None
-    if B_v.rows == B_v.cols:
-        u_red = m.tidy_matrix(_inverse(B_v) * (M_v * dv + n_v))
-        ctx.step("Input of the reduced model", rf"u = (F^T S)^{{-1}}\left(F^T M F\,\dot v + n_v\right) = {m.L(u_red)}",
-                 r"The input that gives the pseudo-acceleration $\dot v$ along the constraint (the constraint "
-                 "force does the rest).", joints=[m.robot.bodies[i].name for i, a in enumerate(actuated) if a and i < len(m.robot.bodies)])
-        ctx.answer("u_reduced", u_red)
-    if spec.get("evaluate"):
-        _evaluate_reduced(ctx, m, spec["evaluate"], dict(A=A, D=D, F=F, M=m.M, g=m.dyn.g + m.dyn.spring,
-                                                         u_track=u_track, u_reduced=u_red, dv=dv, v=v))
-
-
-def _evaluate_reduced(ctx, m: Model, spec, terms):
-    """Answers at one state: the configuration (given, or placing a point by numeric inverse
-    kinematics), the desired pseudo-acceleration (given, or from a rest-to-rest timing law)."""
-    from scipy.optimize import least_squares
-    values = _given_values(ctx)
-    state = m.mapping(spec.get("state"), "reduced_dynamics.evaluate.state", keys="state")
-    steps = []
-    if "place" in spec:
-        pl = spec["place"]
-        pos = _point_position(m, pl.get("point", "ee"), "reduced_dynamics.evaluate.place.point")
-        target = sp.Matrix([ctx.expr(e, "reduced_dynamics.evaluate.place.at") for e in pl["at"]]).subs(values)
-        guess = m.mapping(pl.get("guess"), "reduced_dynamics.evaluate.place.guess")
-        x0 = [float(guess.get(qk, 0.0)) for qk in m.q]
-        rows = [i for i in range(len(target))]
-        defaults = {p.symbol: p.value for p in m.robot.parameters.values()}
-        f = sp.lambdify([list(m.q)], list((pos[:len(rows), 0] - target).subs(values).subs(defaults)), "numpy")
-        sol = least_squares(lambda x: np.asarray(f(x), dtype=float), x0, xtol=1e-14, ftol=1e-14, gtol=1e-14)
-        if np.max(np.abs(sol.fun)) > 1e-9:
-            raise ExerciseError("reduced_dynamics.evaluate.place: the point cannot reach the target")
-        for qk, val in zip(m.q, sol.x):
-            state[qk] = sp.Float(val)
-        steps.append(rf"q = {m.L(sp.Matrix([state[qk] for qk in m.q]).evalf(6))}")
-        ctx.answer("q_at", sp.Matrix([state[qk] for qk in m.q]))
-    for d in m.dq:
-        state.setdefault(d, 0)
-    missing = [qk for qk in m.q if qk not in state]
-    if missing:
-        raise ExerciseError(f"reduced_dynamics.evaluate: no value for {', '.join(s.name for s in missing)}")
-    dv_val = None
-    if "timing" in spec:
-        tm = spec["timing"]
-        prof = _PROFILES.get(tm.get("profile", "cubic"))
-        if prof is None:
-            raise ExerciseError(f"reduced_dynamics.evaluate.timing.profile: one of {', '.join(_PROFILES)}")
-        delta = ctx.expr(tm["length"], "timing.length").subs(values)
-        T = ctx.expr(tm["duration"], "timing.duration").subs(values)
-        t, s = symbol("t"), sp.Symbol("sigma")
-        sdd = (delta * prof(s)).diff(s, 2) / T ** 2
-        dv_val = sdd.subs(s, ctx.expr(tm.get("t", 0), "timing.t").subs(values) / T)
-        ctx.answer("Delta", delta)
-        ctx.answer("dv_at", dv_val)
-        steps.append(rf"\Delta = {m.L(sp.N(delta, 6))},\ \dot v_d = {m.L(sp.N(dv_val, 6))}")
-    elif "dv" in spec:
-        dv_val = ctx.expr(spec["dv"], "reduced_dynamics.evaluate.dv").subs(values)
-    sub = {**values, **state}
-
-    def at(x):
-        return m.tidy_matrix(sp.Matrix(x).subs(sub))
-    out = {"M_at": at(terms["M"]), "g_at": at(terms["g"]), "F_at": at(terms["F"])}
-    dvs = {d: dv_val for d in terms["dv"]} if dv_val is not None else {}
-    for key in ("u_track", "u_reduced"):
-        if terms[key] is not None and (dv_val is not None or not (terms[key].free_symbols & set(terms["dv"]))):
-            out[key + "_at"] = at(terms[key].subs(dvs))
-    for name, val in out.items():
-        ctx.answer(name, val)
-    steps += [rf"M = {m.L(out['M_at'])}", rf"g = {m.L(out['g_at'])}", rf"F = {m.L(out['F_at'])}"]
-    steps += [rf"u = {m.L(out[k])}" for k in ("u_track_at", "u_reduced_at") if k in out]
-    ctx.step("At the given state", r",\quad ".join(steps),
-             "Numbers of the exercise substituted (the configuration from inverse kinematics when a point is placed).")
 
 
 # ====================================================================== change of coordinates
