@@ -126,8 +126,8 @@ def cartesian_computed_torque_task(ctx, spec):
     ctx.step("Kinematics of the task", rf"p = {m.L(p)},\quad J = {m.L(J)},\quad \dot J = {m.L(J_dot)}",
              "Direct kinematics, its Jacobian and the time derivative of the Jacobian.", bodies=bodies)
     ctx.step("Control law", rf"u = M J^{{-1}}\left(a - \dot J \dot q\right) + c + g,\quad a = " + a_tex,
-             "With u, q'' = J^-1 (a - J' q'), hence p'' = J q'' + J' q' = a: each error component is a "
-             "decoupled second-order linear system (J nonsingular).", joints=bodies)
+             r"With $u$, $\ddot q = J^{-1}(a - \dot J \dot q)$, hence $\ddot p = J \ddot q + \dot J \dot q = a$: each error "
+             r"component is a decoupled second-order linear system ($J$ nonsingular).", joints=bodies)
     if spec.get("check", True):
         ctx.answer("closed_loop_check", _closed_loop_check(m, u, a, J, Jdot_dq, kp, kd, p_d, dp_d, ddp_d))
     if mode == "free":
@@ -145,7 +145,7 @@ def cartesian_computed_torque_task(ctx, spec):
         ctx.answer("oscillatory", osc)
     rows = [rf"e_{c_}:\ {m.L(pl)} = 0,\ \zeta = {m.L(z)}" for c_, pl, z in zip(comps, polys, zetas)]
     ctx.step("Error transients", r",\quad ".join(rows),
-             "Complex poles (zeta < 1) give a damped oscillation with overshoot; a double real pole (zeta = 1) none.")
+             r"Complex poles ($\zeta < 1$) give a damped oscillation with overshoot; a double real pole ($\zeta = 1$) none.")
 
 
 def _closed_loop_check(m, u, a, J, Jdot_dq, kp, kd, p_d, dp_d, ddp_d, trials=5, seed=0):
@@ -190,10 +190,12 @@ def task_frame_errors_task(ctx, spec):
     L = lambda x: sp.latex(x)
     ctx.step("Errors in the task frame", rf"{{}}^t e = R^T(\alpha_d) e,\quad {{}}^t\dot e = {L(f.te_dot)},\quad "
              rf"{{}}^t\ddot e = {L(f.te_ddot)}",
-             "Differentiating R^T e with a time-varying angle: R' = S(alpha') R, and R'' brings S(alpha'') and -alpha'^2 I.")
+             r"Differentiating $R^T e$ with a time-varying angle: $\dot R = S(\dot\alpha_d) R$, and $\ddot R$ brings "
+             r"$S(\ddot\alpha_d)$ and $-\dot\alpha_d^2 I$.")
     ctx.step("Acceleration that decouples the task errors", rf"a = {L(f.a)},\quad K_P(t) = {L(f.K_P_t)},\quad K_D(t) = {L(f.K_D_t)}",
-             "Imposing te'' + tK_D te' + tK_P te = 0 with p'' = a; written with base-frame errors the gains vary "
-             "with the frame and gain extra terms from its rotation (they become R tK R^T on a straight path).")
+             r"Imposing ${}^t\ddot e + {}^tK_D\, {}^t\dot e + {}^tK_P\, {}^t e = 0$ with $\ddot p = a$; written with base-frame "
+             r"errors the gains vary with the frame and gain extra terms from its rotation (they become $R\, {}^tK R^T$ "
+             "on a straight path).")
     for label, g in (spec.get("gains") or {}).items():
         if label not in axes or not isinstance(g, dict) or "omega" not in g:
             raise ExerciseError(f"task_frame_errors.gains.{label}: {{omega, zeta}} for an axis among {axes}")
@@ -203,7 +205,7 @@ def task_frame_errors_task(ctx, spec):
         ctx.answer(f"k_D_{label}", sp.expand(2 * z * w))
         ctx.step(f"Gains along {label}", rf"s^2 + k_D s + k_P = s^2 + 2\zeta\omega s + \omega^2:\ "
                  rf"k_{{P,{label}}} = {L(sp.expand(w ** 2))},\ k_{{D,{label}}} = {L(sp.expand(2 * z * w))}",
-                 "Natural frequency omega and damping zeta of the error along this axis (zeta = 1: critically damped).")
+                 r"Natural frequency $\omega$ and damping $\zeta$ of the error along this axis ($\zeta = 1$: critically damped).")
 
 
 @task("gains_from_response")
@@ -227,7 +229,7 @@ def gains_from_response_task(ctx, spec):
         ctx.answer(f"de0_{label}", sp.simplify(e.diff(t).subs(t, 0)))
         ctx.step(f"Gains for {label}", rf"{sp.latex(e)}:\quad \ddot e + k_D \dot e + k_P e \equiv 0 \Rightarrow "
                  rf"k_P = {sp.latex(kp)},\ k_D = {sp.latex(kd)}",
-                 "The prescribed error must solve the closed-loop error equation for every t: its exponentials fix "
+                 "The prescribed error must solve the closed-loop error equation for every $t$: its exponentials fix "
                  "the two poles, hence the gains.")
     ctx.answer("K_P", sp.diag(*kps))
     ctx.answer("K_D", sp.diag(*kds))

@@ -9,7 +9,8 @@ force/velocity laws (algebra in ``app.core.constraints``).
   ``inertia: generic`` replaces M and n by symbols m_ij (symmetric) and n_i (results written
   with the entries of an unspecified inertia matrix); ``passive`` (unactuated coordinates);
   ``numeric_data`` (the exercise's numbers that are not robot parameters substituted after A(q));
-  ``multiplier: false`` leaves out the constraint force (lambda, lambda_v, A_pinv, P: costly
+  ``substitute`` (values of symbols of the constraint and of D, e.g. a special angle);
+  ``suffix`` (appended to every answer name); ``multiplier: false`` leaves out the constraint force (lambda, lambda_v, A_pinv, P: costly
   with several constraints).
   Options for the answers: ``on_constraint: {solve_for: [coordinates]}`` (the coordinates
   eliminated by solving h = 0, with q' = F v: the model on the constraint and at rest there);
@@ -58,6 +59,7 @@ from ..errors import UserError
 from ..exercise import ExerciseError
 from ..expressions import ExpressionError, parse_expression, symbol
 from ..kinematics import Kinematics
+from ..mathtext import symbols_text
 from ..steps import to_latex
 from . import task
 from .underactuated import _PROFILES, Model, _given_values, _inverse
@@ -115,16 +117,32 @@ def _completion_rows(ctx, m: Model, spec, data) -> sp.Matrix:
     return None
 
 
+class _Suffixed:
+    """The task context with a suffix on every answer name (several constrained models in one exercise)."""
+
+    def __init__(self, ctx, suffix: str):
+        self._ctx, self._suffix = ctx, suffix
+
+    def answer(self, name, value):
+        self._ctx.answer(name + self._suffix, value)
+
+    def __getattr__(self, name):
+        return getattr(self._ctx, name)
+
+
 @task("reduced_dynamics")
 def reduced_dynamics_task(ctx, spec):
     """Dynamics under holonomic constraints (see the module docstring)."""
+    if spec.get("suffix"):
+        ctx = _Suffixed(ctx, str(spec["suffix"]))
     m = Model(ctx)
     n = len(m.coords)
     generic = spec.get("inertia") == "generic"
     if spec.get("inertia") not in (None, "generic", "robot"):
         raise ExerciseError("reduced_dynamics.inertia: 'generic' or 'robot'")
     M, nvec = con.generic_inertia(n, symbol) if generic else (m.M, m.n)
-    h = _constraint(ctx, m, spec)
+    subs = {symbol(k_): ctx.expr(v, f"reduced_dynamics.substitute.{k_}") for k_, v in (spec.get("substitute") or {}).items()}
+    h = m.tidy_matrix(_constraint(ctx, m, spec).xreplace(subs))
     k = h.rows
     A = m.tidy_matrix(h.jacobian(m.q))
     if all(con.is_zero(e) for e in A):
@@ -138,7 +156,7 @@ def reduced_dynamics_task(ctx, spec):
     hb = m.bodies_of(range(n))
     ctx.step("Constraint", rf"h(q) = {_L(m, h)} = 0,\quad A(q) = \frac{{\partial h}}{{\partial q}} = {_L(m, A)},\quad "
              rf"\dot A = {_L(m, A_dot)}",
-             "The constraint holds at all times, so A(q) q' = 0 and A q'' + A' q' = 0.", bodies=hb)
+             r"The constraint holds at all times, so $A(q)\, \dot q = 0$ and $A \ddot q + \dot A \dot q = 0$.", bodies=hb)
     for name, value in (("h", h), ("A", A), ("A_dot", A_dot)):
         ctx.answer(name, value)
     data = {}
@@ -147,13 +165,15 @@ def reduced_dynamics_task(ctx, spec):
                 if k_.name not in m.robot.parameters}
         A, A_dot = A.subs(data), A_dot.subs(data)
         ctx.step("Numbers of the constraint", rf"A(q) = {_L(m, A)}",
-                 f"The data of the constraint ({', '.join(s_.name for s_ in data)}) are substituted from here on.")
+                 f"The data of the constraint ({symbols_text(s_.name for s_ in data)}) are substituted from here on.")
     if generic:
         ctx.step("Inertia written with its entries", rf"M = {_L(m, M)},\quad n = {_L(m, nvec)}",
                  "The entries of the unconstrained model are kept as symbols.")
     if spec.get("multiplier", True):
         _multiplier(ctx, m, M, nvec, S, u, A, A_dot, spec)
     D = _completion_rows(ctx, m, spec, data)
+    if D is not None and subs:
+        D = m.tidy_matrix(D.xreplace(subs))
     if D is None:
         return
     terms = _pseudo_velocities(ctx, m, spec, M, nvec, S, u, A, A_dot, D, hb)
@@ -180,7 +200,7 @@ def _multiplier(ctx, m, M, nvec, S, u, A, A_dot, spec):
              rf"M\ddot q + n = S u + A^T\lambda,\quad A^\#_M = M^{{-1}}A^T(AM^{{-1}}A^T)^{{-1}} = {_L(m, A_pinv)},\quad "
              rf"\lambda = {_L(m, lam)}",
              "Solve for the constraint force; substituting it gives the dynamically consistent "
-             "projection M q'' = (I - A^T A#^T)(S u - n) - M A# A' q'.")
+             r"projection $M \ddot q = (I - A^T A^{\#T}_M)(S u - n) - M A^\#_M \dot A \dot q$.")
     ctx.answer("A_pinv", A_pinv)
     ctx.answer("P", P)
     ctx.answer("lambda", lam)
@@ -223,17 +243,18 @@ def _pseudo_velocities(ctx, m, spec, M, nvec, S, u, A, A_dot, D, hb):
     lam_v = m.tidy_matrix(E.T * (M * (F * dv + F_dot * v) + nvec - S * u)) if with_force else None
     ctx.step("Pseudo-velocities", rf"v = D(q)\dot q = {_L(m, D * m.dq)},\quad \begin{{pmatrix}}A\\ D\end{{pmatrix}}^{{-1}} = "
              rf"\begin{{pmatrix}}E & F\end{{pmatrix}} = {_L(m, E.row_join(F))}",
-             "The completion is nonsingular where det [A; D] is not zero; then q' = F(q) v and q'' = F v' + F' v.",
+             rf"The completion is nonsingular where $\det \begin{{pmatrix}}A\\ D\end{{pmatrix}} = {_L(m, det)}$ is not zero; "
+             r"then $\dot q = F(q)\, v$ and $\ddot q = F \dot v + \dot F v$.",
              bodies=hb)
     ctx.step("Reduced dynamics", rf"F^T M F\,\dot v + F^T\left(n - M(E\dot A + F\dot D)\dot q\right) = F^T S u,\quad "
              rf"F^T M F = {_L(m, M_v)},\quad F^T S = {_L(m, B_v)}",
-             "Premultiplying by F^T removes the constraint force (F^T A^T = 0): "
+             r"Premultiplying by $F^T$ removes the constraint force ($F^T A^T = 0$): "
              f"{n - k} equation(s) in the pseudo-velocities.", bodies=hb)
     if with_force:
         ctx.step("Constraint force", rf"\lambda = E^T\left(M(F\dot v + \dot F v) + n - S u\right) = {_L(m, lam_v)}",
-                 "Premultiplying the constrained model by E^T (A E = I) isolates the multiplier.")
+                 r"Premultiplying the constrained model by $E^T$ ($A E = I$) isolates the multiplier.")
     ctx.step("Input for a desired pseudo-acceleration", rf"u = M(q)\left(F\dot v - (E\dot A + F\dot D)\dot q\right) + n = {_L(m, u_track)}",
-             "With every joint actuated this input realizes v' and needs no constraint force (lambda = 0).",
+             r"With every joint actuated this input realizes $\dot v$ and needs no constraint force ($\lambda = 0$).",
              joints=hb)
     answers = {"D": D, "det_AD": det, "v": m.tidy_matrix(D * m.dq), "v_dot": m.tidy_matrix(D * m.ddq + D_dot * m.dq),
                "D_dot": D_dot, "E": E, "F": F, "F_dot": F_dot, "M_v": M_v, "M_F": M_F, "n_v": n_v, "B_v": B_v,
@@ -250,7 +271,7 @@ def _pseudo_velocities(ctx, m, spec, M, nvec, S, u, A, A_dot, D, hb):
         u_red = m.tidy_matrix(_inverse(B_v.extract(list(range(B_v.rows)), cols)) * (M_v * dv + n_v))
         names = _L(m, sp.Matrix([u[j] for j in cols]))
         ctx.step("Input of the reduced model", rf"{names} = (F^T S)^{{-1}}\left(F^T M F\,\dot v + n_v\right) = {_L(m, u_red)}",
-                 "The inputs that give the pseudo-acceleration v' along the constraint (the constraint force does the rest).")
+                 r"The inputs that give the pseudo-acceleration $\dot v$ along the constraint (the constraint force does the rest).")
         ctx.answer("u_reduced", u_red)
         terms["u_reduced"] = u_red
     return terms
@@ -294,14 +315,14 @@ def _on_constraint(ctx, m, spec, h, t):
     out["u_rest"] = m.tidy_matrix(t["u_track"].xreplace(rest).xreplace(pos))
     for name, value in out.items():
         ctx.answer(name, value)
-    subs = ", ".join(f"{k} = {v}" for k, v in pos.items())
+    subs = ", ".join(f"${_L(m, k)} = {_L(m, v)}$" for k, v in pos.items())
     ctx.step("On the constraint", rf"{_L(m, sp.Matrix(list(pos)))} = {_L(m, sp.Matrix(list(pos.values())))},\quad "
              rf"\dot q = F v:\quad F^T M F\,\dot v + {_L(m, out['n_v_on'])} = F^T S u,\quad \lambda = {_L(m, out['lambda_v_on'])}",
              f"The constraint eliminates {subs}; the velocity terms that the constraint forbids vanish.")
     ctx.step("At rest on the constraint", rf"\dot v = {_L(m, out['dv_rest'])},\quad \lambda = {_L(m, out['lambda_rest'])},\quad "
              rf"u_{{\lambda = 0}} = {_L(m, out['u_rest'])}",
-             "Static equilibrium needs v' = 0: a family of inputs, each with its constraint force; "
-             "lambda = 0 for the gravity torque alone.")
+             r"Static equilibrium needs $\dot v = 0$: a family of inputs, each with its constraint force; "
+             r"$\lambda = 0$ for the gravity torque alone.")
 
 
 def _hybrid(ctx, m, spec, t, actuated):
@@ -325,7 +346,7 @@ def _hybrid(ctx, m, spec, t, actuated):
     ctx.answer("u_hybrid", u_h)
     ctx.answer("dv_hybrid", dv_h)
     ctx.answer("lambda_hybrid", lam_h)
-    ctx.step("Decoupling input (hybrid force/velocity)",
+    ctx.step("Decoupling input (hybrid force and velocity control)",
              rf"u = M(F a_v + \dot F v) + n - A^T a_\lambda = {_L(m, u_h)}\ \Rightarrow\ \dot v = {_L(m, dv_h)},\ \lambda = {_L(m, lam_h)}",
              "Substituted in the reduced model and in the multiplier, the input gives the commanded "
              "pseudo-acceleration and constraint force independently (outer loops close on each).",

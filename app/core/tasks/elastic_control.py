@@ -77,10 +77,11 @@ def elastic_impedance_task(ctx, spec):
     ctx.answer("u", u_law)
     bodies = [b.name for b in m.robot.bodies]
     ctx.step("Motor inertia reduction", rf"\tau = (I - B B_0^{{-1}})\tau_J + B B_0^{{-1}}(u - D_0\dot\theta) = {m.L(tau)}",
-             "Substituted in B theta'' + tau_J = tau it gives B0 theta'' + D0 theta'' + tau_J = u: fast motors, tau_J close to u.",
+             r"Substituted in $B \ddot\theta + \tau_J = \tau$ it gives $B_0 \ddot\theta + D_0 \dot\theta + \tau_J = u$: "
+             r"fast motors, $\tau_J$ close to $u$.",
              joints=bodies)
     ctx.step("Cartesian impedance on the links", rf"u = J^T(K_m(x_d - x) - D_m \dot x) + g(q) = {m.L(u_law)}",
-             "With tau_J = u the link dynamics follow the impedance model with the natural Cartesian inertia.")
+             r"With $\tau_J = u$ the link dynamics follow the impedance model with the natural Cartesian inertia.")
     if "force" not in spec:
         return
     F = np.asarray(d.array(spec["force"], "elastic_impedance.force"), float).reshape(-1)
@@ -135,5 +136,5 @@ def _equilibrium(ctx, m, d, spec, links, motors, K, x, J, g, u_law, tau, Km, x_d
     ctx.step("Equilibrium under a constant force", rf"q_E = {vec(qE)},\ x_E = {vec(xE)} = x_d + K_m^{{-1}}\bar F,\quad "
              rf"u_E = {vec(uE)} = g(q_E) - J^T(q_E)\bar F,\quad \tau_E = u_E",
              "Solved on the whole elastic model at rest; the impedance spring balances the external force, "
-             "K_m (x_d - x_E) = -F, so the gravity torque is reduced by J^T F.",
+             r"$K_m (x_d - x_E) = -\bar F$, so the gravity torque is reduced by $J^T \bar F$.",
              configuration={c: float(v) for c, v in zip([m.coords[i] for i in links + motors], list(qE) + list(thetaE))})

@@ -76,7 +76,7 @@ def impact_task(ctx, spec):
              bodies=[b.name for b in robot.bodies])
     ctx.step("Velocities after the impact", rf"\Lambda = {L(res.impulse)},\quad \dot q^+ = {L(res.dq_after)},\quad "
              rf"T^- - T^+ = {L(res.energy_loss)}",
-             "Momentum along the free directions is kept; with e = 1 the kinetic energy is kept as well.")
+             "Momentum along the free directions is kept; with $e = 1$ the kinetic energy is kept as well.")
     for label, subs in (spec.get("cases") or {}).items():
         if not isinstance(subs, dict):
             raise ExerciseError(f"impact.cases.{label}: a mapping parameter -> value")
@@ -117,11 +117,12 @@ def gravity_learning_task(ctx, spec):
     relation = ">" if run.converges else r"\le"
     ctx.step("Convergence condition", rf"\alpha = \max\|\partial g/\partial q\| = {num(alpha)},\quad "
              rf"k_P = {num(min(kp))} {relation} 2\alpha = {num(2 * alpha)}",
-             "With k_P > 2 alpha the iterations contract: |e_i| < beta/(1 - beta) |e_{i-1}| with k_P beta > alpha, beta <= 1/2.")
+             r"With $k_P > 2\alpha$ the iterations contract: $|e_i| < \frac{\beta}{1 - \beta} |e_{i-1}|$ with "
+             r"$k_P \beta > \alpha$, $\beta \le \frac{1}{2}$.")
     ctx.step("Error bounds", rf"\beta = {num(run.beta)},\ \frac{{\beta}}{{1-\beta}} = {num(run.contraction)},\quad "
              rf"\hat e_i = {vec(run.e_bounds)},\quad i_{{min}} = {run.i_min}",
-             f"The first iteration whose bound is below epsilon = {num(eps)}.")
+             rf"The first iteration whose bound is below $\varepsilon = {num(eps)}$.")
     rows = [rf"i = {i}: q = {vec(q, 4)},\ u = {vec(u, 4)}" for i, (q, u) in enumerate(zip(run.q_iterates, run.u_iterates))]
     ctx.step("Iterates", r",\quad ".join(rows),
-             "Each rest configuration solves g(q) = K_P (q_d - q) + u_{i-1}; then u_i = u_{i-1} + K_P (q_d - q_i). "
-             f"The feedforward converges to g(q_d) = {vec(run.u_true, 4)}.")
+             r"Each rest configuration solves $g(q) = K_P (q_d - q) + u_{i-1}$; then $u_i = u_{i-1} + K_P (q_d - q_i)$. "
+             rf"The feedforward converges to $g(q_d) = {vec(run.u_true, 4)}$.")
