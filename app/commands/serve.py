@@ -18,6 +18,9 @@ def run(args) -> int:
 
     lab = LabServer(host=args.host, port=args.port, robot=args.robot, verbose=False)
     print(f"Robotics II Lab: open {lab.url} in a browser (Ctrl+C stops)", flush=True)
+    if lab.policy.token:
+        print(f"Other machines: http://<this machine's address>:{lab.viser.get_port()}/{lab.policy.token}/ "
+              "(the token is new at every start; without it the server refuses)", flush=True)
     try:
         while True:
             time.sleep(3600)

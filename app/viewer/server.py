@@ -18,6 +18,7 @@ from typing import Dict, List, Optional, Tuple
 import viser
 
 from app.core.robot import RobotModel, list_robot_names, load_robot, robot_path
+from app.viewer.guard import HandshakePolicy, guard_widget_updates, handshake_checked, widget_name
 from app.viewer.session import Session
 
 DEFAULT_ROBOT = "planar_2r"
@@ -35,7 +36,9 @@ class RobotInfo:
 
 class LabServer:
     """Serves the lab on ``host:port`` (port 0 picks a free one). Robots are loaded once and shared
-    by all sessions (reloaded when their file changes); each tab has its own state."""
+    by all sessions (reloaded when their file changes); each tab has its own state. Requests and
+    widget values are checked as app/viewer/guard.py says (beyond loopback, ``url`` holds the
+    per-server token)."""
 
     def __init__(self, host: str = "127.0.0.1", port: int = 8080, robot: Optional[str] = None,
                  verbose: bool = True):
@@ -48,8 +51,10 @@ class LabServer:
             self.robot(robot)          # fail early (UserError) on an unknown robot
         self.initial_robot = robot or (DEFAULT_ROBOT if DEFAULT_ROBOT in names else names[0])
         self.verbose = verbose
-        with self._quiet():
+        self.policy = HandshakePolicy(host, port)
+        with self._quiet(), handshake_checked(self.policy):
             self.viser = viser.ViserServer(host=host, port=port, label="Robotics II Lab", verbose=verbose)
+        guard_widget_updates(self.viser.gui, lambda handle, reason: None)
         self.viser.on_client_connect(self._connect)
         self.viser.on_client_disconnect(self._disconnect)
 
@@ -57,7 +62,8 @@ class LabServer:
     def url(self) -> str:
         host = self.viser.get_host()
         shown = "127.0.0.1" if host in ("0.0.0.0", "") else host
-        return f"http://{shown}:{self.viser.get_port()}"
+        token = f"/{self.policy.token}/" if self.policy.token else ""
+        return f"http://{shown}:{self.viser.get_port()}{token}"
 
     def stop(self) -> None:
         for session in list(self.sessions.values()):
@@ -102,6 +108,10 @@ class LabServer:
 
     # ------------------------------------------------------------------ sessions
     def _connect(self, client) -> None:
+        def refused(handle, reason):
+            client.add_notification("Value refused", f"{widget_name(handle)}: {reason}.",
+                                    color="red", with_close_button=True)
+        guard_widget_updates(client.gui, refused)
         try:
             session = Session(self, client)
         except Exception as exc:       # a bug must not leave a blank page without a word

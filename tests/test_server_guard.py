@@ -1,0 +1,143 @@
+"""The lab's web server as a hostile client sees it (issue 15, server items 2 and 3): a raw
+websocket client speaking viser's protocol, no browser.
+
+- a page on another site (foreign ``Origin``) or a rebound host name (foreign ``Host``) gets 403
+  and no session; the lab's own page gets one;
+- bound beyond loopback, nothing without the per-server token in the path;
+- widget values out of the widget's range or options, not finite, or other properties than the
+  value are refused before any callback runs, with a message in that tab; values in range pass.
+"""
+import time
+import urllib.error
+import urllib.request
+
+import msgspec
+import pytest
+import viser
+import zstandard
+from websockets.exceptions import InvalidStatus
+from websockets.sync.client import connect
+
+PROTOCOL = [f"viser-v{viser.__version__}"]
+
+
+def ws_url(lab, path=""):
+    return f"ws://127.0.0.1:{lab.viser.get_port()}{path}"
+
+
+def wait_for(condition, timeout=20.0):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        value = condition()
+        if value:
+            return value
+        time.sleep(0.05)
+    raise AssertionError("timed out")
+
+
+def page_text(frame: bytes) -> bytes:
+    """The msgpack payload of one frame from viser (8-byte sizes, then zstd; binary data after)."""
+    size, packed = int.from_bytes(frame[:8], "little"), int.from_bytes(frame[8:16], "little")
+    return zstandard.ZstdDecompressor().decompress(frame[16:16 + packed], max_output_size=size)
+
+
+def say_hello(ws):
+    """What a browser sends first: viser counts a client as connected once it reports its camera."""
+    ws.send(msgspec.msgpack.encode({
+        "type": "ViewerCameraMessage", "wxyz": [1.0, 0.0, 0.0, 0.0], "position": [0.0, -3.0, 1.0],
+        "fov": 1.0, "near": 0.01, "far": 100.0, "image_height": 480, "image_width": 640,
+        "look_at": [0.0, 0.0, 0.0], "up_direction": [0.0, 0.0, 1.0]}))
+
+
+def refused_status(url, **headers):
+    """The HTTP status of a refused websocket handshake (None when it opened)."""
+    try:
+        with connect(url, subprotocols=PROTOCOL, additional_headers=headers, open_timeout=10):
+            return None
+    except InvalidStatus as exc:
+        return exc.response.status_code
+
+
+def test_foreign_origin_and_host_get_no_session(lab):
+    own = f"127.0.0.1:{lab.viser.get_port()}"
+    before = set(lab.sessions)
+    assert refused_status(ws_url(lab), Origin="http://evil.example.com") == 403
+    assert refused_status(ws_url(lab), Origin="null") == 403
+    assert refused_status(ws_url(lab), Host=f"evil.example.com:{lab.viser.get_port()}") == 403
+    request = urllib.request.Request(f"http://{own}/", headers={"Host": "rebound.example.com"})
+    with pytest.raises(urllib.error.HTTPError) as refused:
+        urllib.request.urlopen(request, timeout=10)
+    assert refused.value.code == 403
+    time.sleep(0.3)
+    assert set(lab.sessions) == before
+    # the lab's own page (same Origin) is served and its websocket opens (the next test uses it)
+    with urllib.request.urlopen(f"http://{own}/", timeout=10) as page:
+        assert page.status == 200 and b"<html" in page.read(2000).lower()
+    with connect(ws_url(lab), subprotocols=PROTOCOL, additional_headers={"Origin": f"http://{own}"}) as ws:
+        assert ws.recv(timeout=10)
+
+
+def test_beyond_loopback_needs_the_token():
+    from app.viewer.server import LabServer
+    lab = LabServer(host="0.0.0.0", port=0, verbose=False)
+    try:
+        token = lab.policy.token
+        assert token and len(token) >= 20 and lab.url.endswith(f"/{token}/")
+        assert refused_status(ws_url(lab)) == 403
+        assert refused_status(ws_url(lab, "/" + token[:-1] + "x")) == 403
+        with urllib.request.urlopen(f"http://127.0.0.1:{lab.viser.get_port()}/{token}/", timeout=10) as page:
+            assert page.status == 200
+        with pytest.raises(urllib.error.HTTPError):
+            urllib.request.urlopen(f"http://127.0.0.1:{lab.viser.get_port()}/", timeout=10)
+        with connect(ws_url(lab, "/" + token), subprotocols=PROTOCOL) as ws:
+            assert ws.recv(timeout=10)      # the handshake passed: viser sends the scene
+    finally:
+        lab.stop()
+
+
+def _handle(session, label):
+    handles = session.gui._gui_input_handle_from_uuid.values()
+    return next(h for h in handles if h._impl.props.label == label)
+
+
+def test_out_of_range_widget_values_are_refused_with_a_message(lab):
+    before = set(lab.sessions)
+    own = f"http://127.0.0.1:{lab.viser.get_port()}"
+    with connect(ws_url(lab), subprotocols=PROTOCOL, additional_headers={"Origin": own},
+                 max_size=None) as ws:
+        say_hello(ws)
+        session = lab.sessions[wait_for(lambda: set(lab.sessions) - before).pop()]
+        wait_for(lambda: session._sliders and session.robot_name == "planar_2r")
+        q1 = session._sliders[0]
+        low, high = q1.min, q1.max
+        robot = _handle(session, "Robot")
+
+        def send(handle, updates):
+            ws.send(msgspec.msgpack.encode({"type": "GuiUpdateMessage", "uuid": handle._impl.uuid,
+                                            "updates": updates}))
+
+        received = []
+
+        def page_says(text):
+            def seen():
+                try:
+                    while True:
+                        received.append(ws.recv(timeout=0.05))
+                except TimeoutError:
+                    pass
+                return any(text.encode() in page_text(frame) for frame in received if isinstance(frame, bytes))
+            return seen
+
+        for bad in ({"value": 1e9}, {"value": high + 1.0}, {"value": float("nan")}, {"value": "1"},
+                    {"value": 0.1, "max": 1e9}):
+            received.clear()
+            send(q1, bad)
+            wait_for(page_says("Value refused"), timeout=10)
+            assert q1.value == pytest.approx(session.q[0]) and low <= q1.value <= high, bad
+        send(robot, {"value": "../../etc/passwd"})
+        wait_for(page_says("is not one of the options"), timeout=10)
+        assert session.robot_name == "planar_2r"
+        # a value within the range goes through to the session
+        target = 0.5 * (low + high) + 0.123
+        send(q1, {"value": target})
+        wait_for(lambda: abs(session.q[0] - target) < 1e-9, timeout=10)
