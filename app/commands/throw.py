@@ -1,6 +1,8 @@
 """``python -m app throw CONFIG [--json] [--verify]``: a VHC throw of the throwing arm;
 ``python -m app throw --optimize [--seed N] [--budget SECONDS]``: the longest throw under every limit;
-``python -m app throw --thesis``: the thesis's numbers beside the lab's.
+``python -m app throw --thesis``: the thesis's numbers beside the lab's;
+``python -m app throw CONFIG --closed-loop {open,vhc,transverse,all} [--plant FILE] [--monte-carlo N]``:
+the throw in full dynamics under feedback on a plant that differs from the model (docs/throwing.md).
 
 JSON output of a throw (a stable contract, keys are only ever added): theta_dot_e [m/s], duration [s],
 release_position [x, y] (m, y above the ground), release_velocity [vx, vy] (m/s, J(q) q'),
@@ -35,6 +37,13 @@ def add_arguments(p):
     p.add_argument("--out", help="with --optimize: write the best throw to this YAML file")
     p.add_argument("--thesis", action="store_true", help="the thesis's numbers beside the lab's")
     p.add_argument("--robot", default="throwing_arm", help="robot file with the throwing arm's structure")
+    p.add_argument("--closed-loop", choices=("open", "vhc", "transverse", "all"),
+                   help="simulate the throw in full dynamics under a controller: the plan's torques open loop, "
+                        "VHC enforcement (feedback linearization + PD) or the transverse LQR stabilizer")
+    p.add_argument("--plant", default="exact",
+                   help="plant file (YAML/JSON) or a shipped plant (exact, heavier) for --closed-loop")
+    p.add_argument("--monte-carlo", type=int, metavar="N",
+                   help="with --closed-loop: N plants drawn from the plant file's uncertainty ranges (seed: --seed)")
 
 
 def _floats(values, digits=10):
@@ -163,6 +172,59 @@ def _optimize(args, arm) -> int:
     return 0
 
 
+def closed_loop_json(run, planned_distance: float, j: int = 0) -> dict:
+    """One plant's closed-loop throw (docs/cli.md)."""
+    released = bool(run.released[j])
+    num = lambda a: float(a[j]) if released else None
+    vec = lambda a: _floats(a[:, j]) if released else None
+    return {"controller": run.controller, "released": released, "release_time": num(run.release_time),
+            "theta_dot_e": num(run.theta_dot_e), "release_speed": num(run.release_speed),
+            "release_position": vec(run.release_position), "release_velocity": vec(run.release_velocity),
+            "distance_from_base": num(run.distance), "distance_from_base_thesis": num(run.distance_thesis),
+            "landing_error": float(run.distance[j] - planned_distance) if released else None,
+            "max_speed_ratio": _floats(run.max_speed_ratio[:, j]),
+            "max_torque_ratio": _floats(run.max_torque_ratio[:, j]),
+            "position_violation": bool(run.position_violation[j]), "violation": bool(run.violation[j])}
+
+
+def _closed_loop(args, throw) -> dict:
+    from app.core.errors import UserError
+    from app.core.throw_control import CONTROLLERS, load_plant, simulate_closed_loop
+    from app.core.throw_montecarlo import format_summary, monte_carlo
+
+    plant = load_plant(args.plant)
+    names = list(CONTROLLERS) if args.closed_loop == "all" else [args.closed_loop]
+    planned = throw.release.distance_from_base
+    out = {"plant": plant.to_config(), "planned_distance_from_base": planned,
+           "planned_release_speed": throw.release.speed}
+    if args.monte_carlo is not None:
+        if not 1 <= args.monte_carlo <= 100000:
+            raise UserError("--monte-carlo must be between 1 and 100000 plants")
+        study = monte_carlo(throw, plant, names, args.monte_carlo, seed=args.seed,
+                            progress=_progress(not args.json))
+        out["monte_carlo"] = {"plants": study.plants, "seed": study.seed,
+                              "controllers": {n: study.summary(n) for n in names}}
+        if not args.json:
+            print(f"plant: {plant.title}")
+            print(format_summary(study))
+        return out
+    runs = [simulate_closed_loop(throw, n, plant, seed=args.seed) for n in names]
+    out["runs"] = [closed_loop_json(r, planned) for r in runs]
+    if not args.json:
+        print(f"plant: {plant.title}; planned landing {planned:.4f} m from the base, release speed "
+              f"{throw.release.speed:.4f} m/s")
+        for r in out["runs"]:
+            if not r["released"]:
+                print(f"  {r['controller']:10s} the ball never reaches theta_e")
+                continue
+            print(f"  {r['controller']:10s} lands {r['distance_from_base']:.4f} m (error {r['landing_error']:+.4f} m), "
+                  f"release speed {r['release_speed']:.4f} m/s, max speed/limit "
+                  + " ".join(f"{x:.3f}" for x in r["max_speed_ratio"])
+                  + ", max |tau|/limit " + " ".join(f"{x:.3f}" for x in r["max_torque_ratio"])
+                  + ("; limits violated" if r["violation"] else ""))
+    return out
+
+
 def run(args) -> int:
     from app.core.errors import UserError
     from app.core.vhc import ThrowingArm, load_throw_config, simulate_full
@@ -177,13 +239,21 @@ def run(args) -> int:
         return _optimize(args, arm)
     if cfg is None:
         raise UserError("give a throw file or a shipped throw (throw1, throw2, throw3), or --optimize, or --thesis")
+    if args.monte_carlo is not None and not args.closed_loop:
+        raise UserError("--monte-carlo needs --closed-loop")
     throw = arm.solve(cfg.spec)
     feas = throw.check()
     sims = [simulate_full(throw, c) for c in ("feedforward", "computed_torque")] if args.verify else []
+    if args.closed_loop:
+        closed = _closed_loop(args, throw)
+        if not args.json:
+            return 0
     if args.json:
         out = throw_json(arm, throw, feas)
         if sims:
             out["verification"] = [verification_json(s) for s in sims]
+        if args.closed_loop:
+            out["closed_loop"] = closed
         json.dump(out, sys.stdout)
         sys.stdout.write("\n")
         return 0
