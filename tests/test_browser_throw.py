@@ -100,10 +100,10 @@ def test_throw_one_lands_at_its_marker_and_throw_three_is_refused(lab, browser, 
         ball = studio.nodes.get("ball").position
         assert ball[0] == pytest.approx(rel.distance_from_base, abs=1e-9) and ball[1] == 0    # landed: y set to 0
         # the marker is drawn where it projects on the canvas (the camera frames the whole throw)
-        shots.settle(page, 1.0)
-        px = shots.project(session.client.camera, [marker.position])[0]
-        assert 0 <= px[0] < session.client.camera.image_width - 420
-        assert reddish_near(shots.image(page), px)
+        def marker_drawn():
+            px = shots.project(session.client.camera, [marker.position])[0]
+            return 0 <= px[0] < session.client.camera.image_width - 420 and reddish_near(shots.image(page), px)
+        wait_until(marker_drawn, what="the landing marker drawn red where it projects")  # the camera may still move
         # throw three cannot be reached as printed: a clear message, and throw one stays on display
         page.get_by_role("button", name="Throw 3", exact=True).click()
         badge(page, "error", "cannot be reached", "2.7 mm beyond the reach of link 3")

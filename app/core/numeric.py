@@ -48,7 +48,8 @@ class NumericModel:
     def __init__(self, robot: RobotModel, params: Optional[Mapping[str, float]] = None,
                  dynamics: Optional[Dynamics] = None):
         self.robot = robot
-        self.dyn = dynamics or derive(robot)
+        if dynamics is not None:
+            self.dyn = dynamics             # else derived on first use (kinematics and pinocchio need none)
         self.n = robot.n
         self._q = robot.q
         self._dq = robot.dq
@@ -65,6 +66,11 @@ class NumericModel:
             values[name] = self.robot.check_parameter_value(name, value)
         self.values = values
         self.p = np.array([values[name] for name in self.robot.parameters], dtype=float)
+
+    @cached_property
+    def dyn(self) -> Dynamics:
+        """The symbolic model (derived, or read from the derivation cache, when first needed)."""
+        return derive(self.robot)
 
     # ------------------------------------------------------------------ compiled functions
     @cached_property

@@ -186,11 +186,11 @@ _TERMS_CACHE: Dict[tuple, tuple] = {}
 def _prepare_terms(robot: RobotModel, num: NumericModel):
     """Parameter-dependent pieces of ModelTerms worth caching: linear spring and friction maps,
     whether pinocchio's joints are the coordinates, and a factory of the pinocchio model."""
-    dyn = num.dyn
     q, dq = robot.q, robot.dq
     subs = {sp.Symbol(k, real=True): v for k, v in num.values.items()}
-    spring_lin = _linear_map(dyn.spring, q, subs) if robot.springs else None
-    friction_lin = _linear_map(dyn.friction, dq, subs) if (robot.viscous or robot.dampers) and not robot.coulomb else None
+    spring_lin = _linear_map(num.dyn.spring, q, subs) if robot.springs else None
+    friction_lin = (_linear_map(num.dyn.friction, dq, subs)
+                    if (robot.viscous or robot.dampers) and not robot.coulomb else None)
     joint_values = [b.joint.value for b in robot.bodies if b.joint.type != "fixed"]
     joint_values += [sp.Symbol(c, real=True) for c in robot.motor_inertias]
     identity = len(joint_values) == robot.n and all(v == s for v, s in zip(joint_values, q))
