@@ -18,7 +18,9 @@ M q'' + c + g + k(q) + F_v q' = S u, which must be linear (masses on lines, spri
   positive in the Routh analysis (masses, stiffnesses, damping, inertias and lengths always are);
   ``solve_for``: gains for which each Routh condition is solved; ``poles``: ``{gain, values}``,
   numeric poles of the closed loop at those gain values (other symbols from ``given`` or the robot
-  file) and the gain intervals of stability; ``suffix`` appended to every answer name.
+  file) and the gain intervals of stability; ``routh: false`` leaves out the symbolic Routh table
+  (costly with many symbolic parameters: the numeric ``poles`` then answer the stability
+  question); ``suffix`` appended to every answer name.
 
   Answers: ``equations`` (M q'' + n, equal to S u), ``measured`` (F_m(q)), ``law`` (u after
   substitutions), ``closed_loop`` (M q'' + n - S u, = 0), ``equilibrium`` and ``<coordinate>_e``
@@ -197,7 +199,8 @@ def force_control_task(ctx, spec):
     _steady_state(ctx, sp_, loop, S_u, measured, reference, actuated)
     _transfer_functions(ctx, sp_, loop, lhs, S_u_open, u_syms, measured, reference)
     char = loop.characteristic_polynomial()
-    _routh_steps(ctx, sp_, char)
+    if spec.get("routh", True):
+        _routh_steps(ctx, sp_, char)
     if spec.get("poles"):
         _poles(ctx, sp_, char, subs)
 
@@ -332,7 +335,7 @@ def _poles(ctx, sp_, char, subs):
     rows = [rf"{_latex(ctx, gain)} = {num(g)}:\ \max \operatorname{{Re}} p = {num(r)}" for g, r in zip(gains, reals)]
     infinity = r"\infty"
     ranges = [rf"[{num(a)}, {num(b) if b < 1e8 else infinity})\ \text{{{'stable' if st else 'unstable'}}}" for a, b, st in intervals]
-    ctx.step(f"Closed-loop poles as {gain.name} grows", r",\quad ".join(rows + ranges),
+    ctx.step(f"Closed-loop poles as ${_latex(ctx, gain)}$ grows", r",\quad ".join(rows + ranges),
              "Numeric roots of the characteristic polynomial with the exercise's numbers; the interval ends are where a "
              "Routh entry changes sign (poles crossing the imaginary axis).")
 
