@@ -59,6 +59,41 @@ def restricted_null_basis(J: sp.Matrix, components: Sequence[int]) -> List[sp.Ma
     return out
 
 
+def reparametrized(J_p: sp.Matrix, coordinates: Sequence[sp.Symbol], u_of, v_of, u=None, v=None, damping=None) -> dict:
+    """Interaction matrix of one point feature written with other image coordinates s (e.g. polar
+    rho, theta) given through u = u(s), v = v(s): with J_t = d(u, v)/ds, s' = J_t^-1 J_p (V, W).
+    Returns J_t, its determinant and inverse, the new matrix J_s (entries simplified), the zero
+    entries of J_p and J_s as (row, component) pairs and, with ``damping`` (sigma), the damped
+    inverse J_t^T (sigma^2 I + J_t J_t^T)^-1 and its determinant.
+
+    >>> rho, th, lam, Z = sp.symbols("rho theta lam Z", positive=True)
+    >>> u, v = sp.symbols("u v")
+    >>> r = reparametrized(point_interaction_matrix(u, v, Z, lam), [rho, th], rho*sp.cos(th), rho*sp.sin(th), u, v)
+    >>> r["det_J_t"], r["J_s"][0, 2], r["J_s"][1, 5], r["zeros_s"]
+    (rho, rho/Z, -1, [(0, 'w_z'), (1, 'v_z')])
+    """
+    u = u if u is not None else sp.Symbol("u")
+    v = v if v is not None else sp.Symbol("v")
+    uv = sp.Matrix([u_of, v_of])
+    J_t = uv.jacobian(sp.Matrix(list(coordinates))).applyfunc(sp.simplify)
+    det = sp.simplify(J_t.det())
+    J_t_inv = J_t.inv().applyfunc(sp.simplify)
+    J_s = (J_t_inv * J_p.xreplace({u: u_of, v: v_of})).applyfunc(lambda e: sp.factor(sp.trigsimp(sp.expand(e))))
+
+    def zeros(J):
+        return [(i, COMPONENTS[j]) for i in range(J.rows) for j in range(J.cols) if J[i, j] == 0]
+
+    out = {"J_t": J_t, "det_J_t": det, "J_t_inv": J_t_inv, "J_s": J_s, "zeros_p": zeros(J_p), "zeros_s": zeros(J_s)}
+    if damping is not None:
+        def tidy(e):
+            return sp.factor(sp.trigsimp(sp.cancel(e)))
+
+        dls = (J_t.T * (damping ** 2 * sp.eye(J_t.rows) + J_t * J_t.T).inv()).applyfunc(tidy)
+        out["J_t_dls"] = dls
+        out["det_J_t_dls"] = tidy(dls.det())
+    return out
+
+
 def primitive(vector: sp.Matrix) -> sp.Matrix:
     """The vector scaled to polynomial entries without a common factor (direction kept)."""
     entries = [sp.together(e) for e in vector]

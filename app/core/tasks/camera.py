@@ -6,8 +6,13 @@
 ``nullspace`` (true: basis and dimension of the camera motions that leave the features still),
 ``at`` (values of some symbols for a special case of the basis, e.g. {u: 0, v: 0}), ``subspaces``
 (label -> components among v_x v_y v_z w_x w_y w_z: the still motions using only those, e.g.
-translations), ``desired`` (list of [u_d, v_d]: the error e = f_d - f and its norm).
-Answers: ``<name>``, ``<name>_rank``, ``null_dim``, ``null_basis`` (6 x k, one column per free
+translations), ``desired`` (list of [u_d, v_d]: the error e = f_d - f and its norm), ``coordinates``
+(one point: ``{names: [rho, theta], u: "rho*cos(theta)", v: "rho*sin(theta)", name, damping}``,
+the matrix for other image coordinates s with u = u(s), v = v(s): J_t = d(u, v)/ds, s' = J_t^-1 J_p,
+and with ``damping`` sigma the damped inverse of J_t).
+Answers: ``<name>``, ``<name>_rank``, ``J_t``, ``det_J_t``, ``J_t_inv``, the new matrix (``name`` of
+``coordinates``, default ``<name>_s``), ``<name>_zeros`` and ``<new name>_zeros`` (zero entries as
+[row, component]), ``J_t_dls``, ``det_J_t_dls``, ``null_dim``, ``null_basis`` (6 x k, one column per free
 velocity component, as Matlab's symbolic null), ``null_basis_at``, ``<label>_dim``, ``<label>``
 (the direction when the dimension is one, else the basis as columns; scaled to polynomial
 entries), ``e``, ``eta``.
@@ -94,6 +99,8 @@ def interaction_matrix_task(ctx, spec):
     ctx.step("Interaction matrix", rf"\dot f = J (V, \Omega),\quad {to_latex(name)} = {to_latex(J)}",
              rf"Pin-hole projection $u = \lambda X/Z$, $v = \lambda Y/Z$ of fixed points seen by a moving camera; {how}; "
              f"rank {rank}.")
+    if spec.get("coordinates"):
+        _other_coordinates(ctx, spec["coordinates"], J, name, points)
     if spec.get("nullspace"):
         basis = vs.null_basis(J)
         N = _columns(basis)
@@ -130,6 +137,43 @@ def interaction_matrix_task(ctx, spec):
         ctx.answer("eta", eta)
         ctx.step("Feature error and its norm", rf"e = f_d - f = {to_latex(e)},\quad \eta = \|e\| = {to_latex(eta)}",
                  "A scalar task: one row, so n - 1 degrees of freedom stay for other tasks.")
+
+
+def _other_coordinates(ctx, opt, J, name, points):
+    """The ``coordinates`` option: the interaction matrix with other image coordinates (one point)."""
+    where = "interaction_matrix.coordinates"
+    if len(points) != 1 or not isinstance(opt, dict) or not {"names", "u", "v"} <= set(opt) or len(opt["names"]) != 2:
+        raise _fail(ctx, where, "one point and {names: [two new coordinates], u: u(new), v: v(new)}")
+    new = [symbol(str(c)) for c in opt["names"]]
+    u, v, _Z = points[0]
+    u_of, v_of = _expr(ctx, opt["u"], f"{where}.u"), _expr(ctx, opt["v"], f"{where}.v")
+    damping = _expr(ctx, opt["damping"], f"{where}.damping") if "damping" in opt else None
+    r = vs.reparametrized(J, new, u_of, v_of, u, v, damping)
+    new_name = str(opt.get("name", f"{name}_s"))
+    L = to_latex
+    ctx.step("Change of image coordinates",
+             rf"(u, v) = ({L(u_of)}, {L(v_of)}),\quad J_t = \frac{{\partial (u, v)}}{{\partial ({L(new[0])}, {L(new[1])})}} = "
+             rf"{L(r['J_t'])},\quad \det J_t = {L(r['det_J_t'])}",
+             r"The new features move as $\dot s = J_t^{-1} (\dot u, \dot v)$ wherever $J_t$ is nonsingular.")
+    ctx.step("Interaction matrix in the new coordinates",
+             rf"J_t^{{-1}} = {L(r['J_t_inv'])},\quad {L(new_name)} = J_t^{{-1}} {L(name)} = {L(r['J_s'])}",
+             "The matrix of the point written with the new coordinates and premultiplied by the inverse of $J_t$.")
+    pairs = r["zeros_s"]
+    ctx.step("Decoupled velocity components",
+             r",\ ".join(rf"\partial \dot {L(new[i])} / \partial {L(sp.Symbol(c))} = 0" for i, c in pairs) or r"\text{none}",
+             "A zero entry: that feature does not move with that velocity component of the camera (compare the zeros "
+             f"of ${L(name)}$).")
+    answers = {"J_t": r["J_t"], "det_J_t": r["det_J_t"], "J_t_inv": r["J_t_inv"], new_name: r["J_s"],
+               f"{name}_zeros": [list(z) for z in r["zeros_p"]], f"{new_name}_zeros": [list(z) for z in pairs]}
+    if damping is not None:
+        answers.update(J_t_dls=r["J_t_dls"], det_J_t_dls=r["det_J_t_dls"])
+        ctx.step("Damped inverse near the singularity",
+                 rf"J_t^{{DLS}} = J_t^T\left({L(damping)}^2 I + J_t J_t^T\right)^{{-1}} = {L(r['J_t_dls'])},\quad "
+                 rf"\det J_t^{{DLS}} = {L(r['det_J_t_dls'])}",
+                 rf"Where $\det J_t = {L(r['det_J_t'])}$ vanishes the inverse blows up; the damped inverse stays bounded and "
+                 "equals the inverse for zero damping.")
+    for key, value in answers.items():
+        ctx.answer(key, value)
 
 
 # ====================================================================== numeric, camera on a robot
