@@ -1,5 +1,6 @@
 """``python -m app throw CONFIG [--json] [--verify]``: a VHC throw of the throwing arm;
-``python -m app throw --optimize [--seed N] [--budget SECONDS]``: the longest throw under every limit;
+``python -m app throw --optimize [--seed N] [--evaluations N] [--budget SECONDS]``: the longest throw
+under every limit (the budget is counted in throw evaluations; seconds are only an optional cap);
 ``python -m app throw --thesis``: the thesis's numbers beside the lab's;
 ``python -m app throw CONFIG --closed-loop {open,vhc,transverse,all} [--plant FILE] [--monte-carlo N]``:
 the throw in full dynamics under feedback on a plant that differs from the model (docs/throwing.md).
@@ -30,7 +31,11 @@ def add_arguments(p):
                    help="also simulate the full 3-DOF arm (feedforward and computed torque) and report the drift")
     p.add_argument("--optimize", action="store_true", help="search the longest throw under every limit")
     p.add_argument("--seed", type=int, default=0, help="random seed of the optimizer (default 0)")
-    p.add_argument("--budget", type=float, default=40.0, help="optimizer time budget in seconds (default 40)")
+    p.add_argument("--evaluations", type=int, default=None,
+                   help="optimizer budget in throw evaluations (default 12000): the same seed gives the same throw "
+                        "on any machine")
+    p.add_argument("--budget", type=float, default=None,
+                   help="optional extra cap on the optimizer's time in seconds (reported when it ends the search)")
     p.add_argument("--objective", choices=("thesis", "physical"), default="thesis",
                    help="distance to maximize: thesis convention (theta_dot along psi, default) or true velocity")
     p.add_argument("--degree", type=int, default=6, help="Bezier degree for the optimizer (default 6)")
@@ -138,12 +143,15 @@ def _thesis(args, arm) -> int:
 
 def _optimize(args, arm) -> int:
     from app.core.errors import UserError
-    from app.core.vhc import ThrowOptimizer, hand_estimate, simulate_full, speed_limit_bound
+    from app.core.vhc import DEFAULT_EVALUATIONS, ThrowOptimizer, hand_estimate, simulate_full, speed_limit_bound
 
-    if args.budget <= 0:
+    if args.budget is not None and not args.budget > 0:
         raise UserError("--budget must be positive (seconds)")
+    evaluations = DEFAULT_EVALUATIONS if args.evaluations is None else args.evaluations
+    if evaluations < 1:
+        raise UserError("--evaluations must be a positive number of throw evaluations")
     opt = ThrowOptimizer(arm, degree=args.degree, objective=args.objective)
-    res = opt.run(seed=args.seed, budget=args.budget, progress=_progress(not args.json))
+    res = opt.run(seed=args.seed, evaluations=evaluations, max_seconds=args.budget, progress=_progress(not args.json))
     sims = [simulate_full(res.throw, c) for c in ("feedforward", "computed_torque")]
     other = speed_limit_bound(arm, "physical" if args.objective == "thesis" else "thesis", seed=args.seed)
     bounds = {res.bound.convention: res.bound.distance_from_base, other.convention: other.distance_from_base}
@@ -159,12 +167,17 @@ def _optimize(args, arm) -> int:
                                                               est.distance_from_base},
                "verification": [verification_json(s) for s in sims], "evaluations": res.evaluations,
                "local_runs": res.local_runs, "elapsed": res.elapsed,
-               "evaluations_per_second": res.evaluations / res.elapsed}
+               "evaluations_per_second": res.evaluations / res.elapsed,
+               "evaluation_budget": res.evaluation_budget, "time_capped": res.time_capped,
+               "time_cap": args.budget, "seed": args.seed,
+               "evaluations_to_best": res.evaluation_history[-1][0] if res.evaluation_history else None}
         json.dump(out, sys.stdout)
         sys.stdout.write("\n")
         return 0
-    print(f"optimized throw ({res.objective} convention), {res.evaluations} throw evaluations in "
-          f"{res.elapsed:.1f} s, {res.local_runs} local runs")
+    print(f"optimized throw ({res.objective} convention, seed {args.seed}), {res.evaluations} of "
+          f"{res.evaluation_budget} throw evaluations in {res.elapsed:.1f} s, {res.local_runs} local runs")
+    if res.time_capped:
+        print(f"  the time cap of {args.budget:g} s ended the search: this result depends on the machine's speed")
     print(f"  distance from the base  {res.distance_from_base:.4f} m; the joint speed limits alone allow "
           f"{res.bound.distance_from_base:.4f} m (hand estimate of the thesis: {est.distance_from_base:.3f} m)")
     print("  config: " + json.dumps(res.spec.to_config()))

@@ -322,14 +322,37 @@ def _outputs(plan: _Plan, q, dq):
     return theta, thd, y, yd, L, r
 
 
+def _inverse3(M: np.ndarray) -> np.ndarray:
+    """Inverses of a batch of 3 x 3 matrices (B, 3, 3) by cofactors (LAPACK's per-matrix call costs
+    more than the arithmetic at this size).
+
+    >>> M = np.array([[[2.0, 1.0, 0.0], [1.0, 3.0, 1.0], [0.0, 1.0, 4.0]]])
+    >>> bool(np.allclose(_inverse3(M)[0] @ M[0], np.eye(3)))
+    True
+    """
+    def cross(a, b):
+        return np.stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1], a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+                         a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]], axis=-1)
+
+    r0, r1, r2 = M[:, 0], M[:, 1], M[:, 2]
+    c0, c1, c2 = cross(r1, r2), cross(r2, r0), cross(r0, r1)
+    det = np.einsum("bi,bi->b", r0, c0)
+    return np.stack([c0, c1, c2], axis=-1) / det[:, None, None]
+
+
+def _solve2(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """x with A x = b for batches A (B, 2, 2), b (B, 2) (Cramer's rule)."""
+    det = A[:, 0, 0] * A[:, 1, 1] - A[:, 0, 1] * A[:, 1, 0]
+    return np.stack([A[:, 1, 1] * b[:, 0] - A[:, 0, 1] * b[:, 1], A[:, 0, 0] * b[:, 1] - A[:, 1, 0] * b[:, 0]],
+                    axis=-1) / det[:, None]
+
+
 def _linearizing_torque(plan: _Plan, q, dq, v, L, r):
     """The torques (2, B) that make y'' = v in the planner's model: (L M^-1 B) tau = v - r + L M^-1 h."""
     M, h = _dynamics(plan.arm, q, dq, plan.p)
-    Minv = np.linalg.inv(M)
-    LM = np.einsum("bij,bjk->bik", L, Minv)
-    A = LM[:, :, :2]
+    LM = np.einsum("bij,bjk->bik", L, _inverse3(M))
     rhs = v.T - r.T + np.einsum("bij,bj->bi", LM, h)
-    return np.linalg.solve(A, rhs[..., None])[..., 0].T
+    return _solve2(LM[:, :, :2], rhs).T
 
 
 # ====================================================================== transverse linearization
@@ -522,7 +545,7 @@ def _plant_acceleration(arm: ThrowingArm, plants: PlantBatch, q, dq, tau):
     w = dq[2]
     fr = plants.viscous * w + plants.coulomb * np.tanh(w / COULOMB_WIDTH)
     rhs = np.stack([tau[0], tau[1], -fr], axis=-1) - h
-    return np.linalg.solve(M, rhs[..., None])[..., 0].T
+    return np.einsum("bij,bj->ib", _inverse3(M), rhs)
 
 
 def simulate_closed_loop(throw: Throw, controller, plant: Plant, plants: Optional[PlantBatch] = None,

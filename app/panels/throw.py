@@ -26,7 +26,7 @@ import yaml
 
 from app.core.errors import UserError
 from app.core.expressions import ExpressionError, parse_expression
-from app.core.vhc import (REQUIRED_PARAMETERS, ThrowConfig, ThrowingArm, ThrowOptimizer, ThrowSpec,
+from app.core.vhc import (DEFAULT_EVALUATIONS, REQUIRED_PARAMETERS, ThrowConfig, ThrowingArm, ThrowOptimizer, ThrowSpec,
                           elevate_bezier, load_throw_config, parse_throw_config, simulate_full)
 from app.viewer.session import Coalescer
 
@@ -241,8 +241,10 @@ class ThrowStudio:
                      '(and q1 ≥ π/6 of eq. 4.5), then confirm the best throw in the full 3-DOF dynamics.</div>')
         self.objective = gui.add_dropdown("Objective", list(OBJECTIVES), initial_value=list(OBJECTIVES)[0],
                                           hint="which release velocity the distance uses")
-        self.budget = gui.add_slider("Time budget [s]", min=5.0, max=120.0, step=1.0, initial_value=30.0,
-                                     hint="the search stops after this time (or near the speed-limit bound)")
+        self.budget = gui.add_slider("Budget [evaluations]", min=2000, max=60000, step=1000,
+                                     initial_value=DEFAULT_EVALUATIONS,
+                                     hint="throw evaluations the search may spend (the same seed gives the same "
+                                          "throw on any machine); it also stops near the speed-limit bound")
         self.seed = gui.add_number("Seed", 0, min=0, max=10 ** 6, step=1, hint="random start of the global stage")
         self.optimize_button = gui.add_button("Optimize", hint="run the optimizer (off the event thread)")
         self.opt_progress = gui.add_progress_bar(0.0, visible=False, animated=True)
@@ -700,7 +702,7 @@ class ThrowStudio:
         if self._optimizing:
             raise UserError("the optimizer is already running")
         objective = OBJECTIVES[self.objective.value]
-        budget = float(self.budget.value)
+        budget = int(self.budget.value)
         seed = int(self.seed.value)
         arm = self.arm()
         self._optimizing = True
@@ -716,7 +718,7 @@ class ThrowStudio:
             while not done_event.wait(0.5):
                 if not self._alive():
                     return
-                clock = min(0.85, 0.85 * (time.monotonic() - started) / budget)
+                clock = min(0.85, 0.85 * (time.monotonic() - started) / (budget / 2000.0))
                 if clock > shown["fraction"] and shown["fraction"] < 0.85:
                     self.opt_progress.value = 100 * clock
 
@@ -729,7 +731,8 @@ class ThrowStudio:
                     self.opt_status.content = self._status(message)
             threading.Thread(target=tick, daemon=True).start()
             try:
-                result = ThrowOptimizer(arm, objective=objective).run(seed=seed, budget=budget, progress=report)
+                result = ThrowOptimizer(arm, objective=objective).run(seed=seed, evaluations=budget,
+                                                                              progress=report)
                 sims = []
                 for k, controller in enumerate(("feedforward", "computed_torque")):
                     report(0.9 + 0.05 * k, f"full dynamics: {controller.replace('_', ' ')}")
