@@ -68,5 +68,5 @@ def build(session) -> None:
     path = Path(robot.source)
     if path.exists():
         gui.add_markdown(f"File: `{path.name}`")
-        button = gui.add_button("Download the robot file", hint="the YAML file this robot is read from")
+        button = gui.add_button("Download the robot file", hint="the file this robot is read from (YAML or URDF)")
         button.on_click(lambda event: event.client.send_file_download(path.name, path.read_bytes()))
