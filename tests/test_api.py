@@ -38,6 +38,8 @@ def test_the_notebook_runs_and_prints_what_it_shows():
     error = float(re.search(r"final error: (\S+) rad", control).group(1))
     assert "completed: True" in control and error < 1e-3
     assert "theta_dot = 3.7762 m/s after 0.2863 s" in throw and "feasible: False" in throw
+    # the RP arm of 2004-03-25#1: link 2's centre of mass at (l1, q2) in link 1's frame
+    assert "M(q) = [[I1 + I2 + d1**2*m1 + m2*(l1**2 + q2**2), l1*m2], [l1*m2, m2]]" in exercise
     assert "regressor_count = 3" in exercise
 
 

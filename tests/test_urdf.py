@@ -232,3 +232,29 @@ def test_an_oversized_urdf_is_refused_before_parsing():
     text = "<robot name='x'>" + " " * MAX_URDF_CHARS + "</robot>"
     with pytest.raises(UrdfError, match="characters, more than"):
         robot_data_from_urdf(text, "big.urdf")
+
+
+def test_the_page_opens_a_urdf_file(lab, browser, tmp_path):
+    """About 10 s (a browser tab): the page starts on a URDF file (`serve --robot FILE`), and "Open a
+    robot file" in the Robot tab loads another one; the Model tab typesets its model, parameters
+    named after the links."""
+    from app.viewer import screenshot as shots
+    path, first = tmp_path / "arm.urdf", tmp_path / "first.urdf"
+    path.write_text(to_urdf(load_robot("planar_2r")), encoding="utf-8")
+    first.write_text(to_urdf(load_robot("planar_pr")), encoding="utf-8")
+    page, session = shots.open_tab(lab, browser, str(first), tab="Robot")
+    try:
+        assert session.robot_name == str(first) and session.robot.bodies[0].joint.type == "prismatic"
+        with page.expect_file_chooser() as chooser:
+            page.get_by_role("button", name="Open a robot file").click()
+        chooser.value.set_files(str(path))
+        shots.wait_until(lambda: session.robot.source.endswith("arm.urdf") and session.numeric is not None,
+                         what="the URDF robot loaded")
+        shots.wait_ready(page, session.robot_name)
+        assert session.robot.coordinates == ("q1", "q2") and "m_link2" in session.robot.parameters
+        shots.select_tab(page, "Model")
+        page.wait_for_selector(".r2-math math", state="visible")
+        M = session.numeric.M(session.q)
+        assert np.allclose(M, NumericModel(load_robot("planar_2r")).M(session.q), atol=1e-12)
+    finally:
+        page.context.close()

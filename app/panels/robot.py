@@ -1,10 +1,18 @@
 """Robot panel: what the robot file says (coordinates and limits, parameters with units,
-springs, friction, notes) and a download of the file itself."""
+springs, friction, notes), a download of the file itself, and "Open a robot file": a robot file
+(YAML, docs/robot-format.md) or a URDF file from the user's computer, shown like a shipped robot."""
 from __future__ import annotations
 
+import re
+import tempfile
 from pathlib import Path
 
 import sympy as sp
+
+from app.core.errors import UserError
+from app.core.files import MAX_FILE_BYTES
+from app.core.robot import RobotFileError, load_robot_text
+from app.core.urdf import is_urdf
 
 TITLE = "Robot"
 ORDER = 90
@@ -41,6 +49,29 @@ def parameters_table(robot) -> str:
     return "\n".join(rows)
 
 
+def save_uploaded_robot(name: str, content: bytes) -> Path:
+    """Check an uploaded robot file (at most 1 MB of UTF-8, a valid robot file or URDF file) and
+    save it in a new private temporary directory, so that the page loads it by path like any
+    robot file; bad content raises a ``UserError`` naming the problem.
+
+    >>> save_uploaded_robot("arm.yaml", b"name: [")
+    Traceback (most recent call last):
+    ...
+    app.core.robot.RobotFileError: arm.yaml: not valid YAML (line 1): expected the node content, but found '<stream end>'
+    """
+    if len(content) > MAX_FILE_BYTES:
+        raise RobotFileError(f"{name}: larger than {MAX_FILE_BYTES // 1000} kB")
+    try:
+        text = content.decode("utf-8")
+    except UnicodeDecodeError:
+        raise RobotFileError(f"{name}: not a UTF-8 text file") from None
+    load_robot_text(text, name)
+    stem = re.sub(r"[^\w-]", "_", Path(name).stem, flags=re.ASCII)[:60] or "robot"
+    path = Path(tempfile.mkdtemp(prefix="r2lab-robot-")) / (stem + (".urdf" if is_urdf(text, name) else ".yaml"))
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
 def build(session) -> None:
     gui = session.gui
     robot = session.robot
@@ -70,3 +101,15 @@ def build(session) -> None:
         gui.add_markdown(f"File: `{path.name}`")
         button = gui.add_button("Download the robot file", hint="the file this robot is read from (YAML or URDF)")
         button.on_click(lambda event: event.client.send_file_download(path.name, path.read_bytes()))
+    upload = gui.add_upload_button("Open a robot file", mime_type=".yaml,.yml,.urdf",
+                                   hint="a robot file (YAML, docs/robot-format.md) or a URDF file")
+
+    @upload.on_upload
+    def _(event):
+        sent = event.target.value
+        try:
+            path = save_uploaded_robot(sent.name, sent.content)
+        except UserError as exc:
+            session.notify("Cannot open the robot file", str(exc), error=True)
+            return
+        session.load_robot(str(path))

@@ -13,6 +13,7 @@ import threading
 import time
 import traceback
 from concurrent.futures import Future, ThreadPoolExecutor
+from pathlib import Path
 from typing import Callable, Dict, List, Mapping, Optional
 
 import numpy as np
@@ -259,7 +260,8 @@ class Session:
         self._panel_specs = specs
         for err in errors:
             self.notify("A panel failed to load", err.splitlines()[0], error=True)
-        self.load_robot(initial_info.name)
+        from_file = initial != initial_info.name and Path(initial).is_file()    # serve --robot FILE
+        self.load_robot(initial if from_file else initial_info.name)
 
     def _robot_options(self, group: str) -> List[str]:
         return [self._option_of(i) for i in self._catalog if i.group == group]
