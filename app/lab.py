@@ -25,7 +25,8 @@ from app.core.sim import SimResult
 from app.core.sim import simulate as _simulate
 from app.core.tex import model_tex, solution_tex
 from app.core.urdf import to_urdf
-from app.core.vhc import OptimizationResult, Throw, ThrowingArm, ThrowOptimizer, load_throw_config
+from app.core.vhc import (DEFAULT_EVALUATIONS, OptimizationResult, Throw, ThrowingArm, ThrowOptimizer,
+                          load_throw_config)
 
 __all__ = ["robots", "robot", "model", "numeric", "twin", "check", "controllers", "simulate", "throw",
            "optimize_throw", "exercises", "exercise", "solve", "urdf", "latex"]
@@ -152,21 +153,24 @@ def throw(config: str = "throw1", params: Optional[Mapping[str, float]] = None,
     return arm.solve(cfg.spec)
 
 
-def optimize_throw(seed: int = 0, budget: float = 40.0, objective: str = "thesis", degree: int = 6,
-                   params: Optional[Mapping[str, float]] = None, **options) -> OptimizationResult:
-    """The longest throw under every limit (``python -m app throw --optimize``): ``budget`` in
-    seconds, ``objective`` "thesis" or "physical"; ``options`` (``candidates``, ``starts``) size
-    the global stage. The result has the ``throw``, its ``feasibility`` and ``distance_from_base``.
+def optimize_throw(seed: int = 0, evaluations: int = DEFAULT_EVALUATIONS, objective: str = "thesis",
+                   degree: int = 6, params: Optional[Mapping[str, float]] = None, **options) -> OptimizationResult:
+    """The longest throw under every limit (``python -m app throw --optimize``). The budget is
+    counted in throw ``evaluations`` (the same seed gives the same throw on any machine);
+    ``objective`` is "thesis" or "physical"; ``options`` are those of ``ThrowOptimizer.run``
+    (``candidates``, ``starts`` size the global stage; ``max_seconds`` an optional time cap). The
+    result has the ``throw``, its ``feasibility`` and ``distance_from_base`` [m].
 
-    A search takes seconds to minutes (``budget``); a bad request fails at once:
-
+    >>> best = optimize_throw(seed=0, evaluations=300, candidates=200, starts=1)     # a small search
+    >>> best.feasibility.feasible, best.evaluations <= 300, f"{best.distance_from_base:.2f} m"
+    (True, True, '2.43 m')
     >>> optimize_throw(objective="farthest")
     Traceback (most recent call last):
     ...
     app.core.errors.UserError: objective must be 'thesis' or 'physical', got 'farthest'
     """
     arm = ThrowingArm(params=params)
-    return ThrowOptimizer(arm, degree=degree, objective=objective).run(seed=seed, budget=budget, **options)
+    return ThrowOptimizer(arm, degree=degree, objective=objective).run(seed=seed, evaluations=evaluations, **options)
 
 
 # ---------------------------------------------------------------------- exercises
