@@ -60,6 +60,14 @@ def typed(page, label, text):
     box.press("Enter")
 
 
+def load_optimized(page, studio):
+    """Click the optimized throw (thesis convention) and wait until it is on display, feasible."""
+    shown = studio.shown
+    page.get_by_role("button", name="θ̇ along ψ (thesis)", exact=True).click()
+    wait_until(lambda: studio.shown > shown and studio.config.title.startswith("Optimized"), what="the load")
+    badge(page, "feasible")
+
+
 def reddish_near(img, center, half=6):
     x, y = int(round(center[0])), int(round(center[1]))
     patch = img[max(0, y - half):y + half + 1, max(0, x - half):x + half + 1].reshape(-1, 3) / 255.0
@@ -162,10 +170,7 @@ def test_breaking_edits_are_flagged_and_the_last_good_throw_stays(lab, browser, 
 def test_a_control_point_is_dragged_with_the_mouse(lab, browser):
     page, session, studio = open_studio(lab, browser)
     try:
-        shown = studio.shown
-        page.get_by_role("button", name="θ̇ along ψ (thesis)", exact=True).click()
-        wait_until(lambda: studio.shown > shown and studio.config.title.startswith("Optimized"), what="the load")
-        badge(page, "feasible")
+        load_optimized(page, studio)
         studio.show_time(0.0)
         shots.settle(page, 1.5)
         before = list(studio.values["b"])
@@ -189,6 +194,34 @@ def test_a_control_point_is_dragged_with_the_mouse(lab, browser):
         wait_until(lambda: studio.view is not None and studio.view.spec.b[3] == studio.values["b"][3],
                    what="the dragged throw to be solved")
         assert badge(page, "infeasible")       # b3 lowered: joint 1 too fast
+    finally:
+        page.context.close()
+
+
+def test_closed_loop_tab_runs_the_monte_carlo_and_shows_the_histogram(lab, browser):
+    """Load the optimized throw, open the Closed loop tab, ask for a few plants, run: a histogram and a
+    scatter per controller appear beside the plan, and the table gives each controller's spread."""
+    page, session, studio = open_studio(lab, browser)
+    try:
+        load_optimized(page, studio)
+        page.get_by_role("tab", name="Closed loop", exact=True).click()
+        typed(page, "Plants", "6")
+        wait_until(lambda: int(studio.closed_loop.count.value) == 6, timeout=10, what="the plant count")
+        page.get_by_role("button", name="Run closed loop", exact=True).click()
+        page.locator("polyline.r2-cl-hist").first.wait_for(timeout=WAIT * 1000)
+        assert page.locator("polyline.r2-cl-hist").count() == 3
+        assert page.locator("g.r2-cl-scatter circle").count() == 3 * 6
+        assert page.locator("path.r2-cl-plan").count() == 1
+        rows = page.locator("tr.r2-cl-row")
+        assert rows.count() == 3
+        study = studio.closed_loop.study
+        assert study.plants == 6
+        planned = load_throw_config("optimized_thesis")
+        assert study.planned_distance == pytest.approx(ThrowingArm(params=planned.model).solve(planned.spec)
+                                                       .release.distance_from_base, rel=1e-12)
+        mean = study.summary("transverse")["distance"]["mean"]
+        assert f"{mean:.4f}" in rows.nth(2).inner_text()
+        assert "done" in page.locator("text=plants, plant").first.inner_text()
     finally:
         page.context.close()
 

@@ -31,6 +31,7 @@ from app.core.vhc import (DEFAULT_EVALUATIONS, REQUIRED_PARAMETERS, ThrowConfig,
 from app.viewer.session import Coalescer
 
 from .throw_chart import BezierChart
+from .throw_closed_loop import ClosedLoopTab
 from .throw_plots import (BLOCK, ThrowView, angles_plot, badge_html, evaluate, feasibility_badge, phase_plot,
                           speeds_plot, summary_html, torques_plot, verification_html)
 from .throw_scene import FOV, Nodes, ThrowDrawing, throw_camera
@@ -187,6 +188,8 @@ class ThrowStudio:
             self._build_editor()
         with tabs.add_tab("Optimize"):
             self._build_optimizer()
+        with tabs.add_tab("Closed loop"):
+            self.closed_loop = ClosedLoopTab(self)
         self.load_thesis.on_click(lambda e: self._guarded(self.load, THESIS_THROWS[e.target.value]))
         self.load_optimized.on_click(lambda e: self._guarded(self.load, OPTIMIZED_THROWS[e.target.value]))
         self.play.on_click(self._play_clicked)
