@@ -17,7 +17,7 @@ from typing import List, Mapping, Optional, Sequence
 
 import sympy as sp
 
-from .formula_layout import matrix_latex_blocks, split_top_level
+from .formula_layout import matrix_latex_blocks, split_top_level, wrap_latex
 from .mathtext import split_math
 from .steps import shorthand_is_clear, symbol_latex
 
@@ -97,12 +97,13 @@ def model_tex(robot, dynamics, steps: bool = False, width_em: float = PAGE_WIDTH
     for title, formulas in sections:
         lines += [f"\\paragraph{{{text_tex(title)}}}", *_equations(formulas), ""]
     if steps:
-        lines += ["\\subsubsection*{Derivation}", "", *_steps_tex(dynamics.steps)]
+        lines += ["\\subsubsection*{Derivation}", "", *_steps_tex(dynamics.steps, width_em=width_em)]
     return "\n".join(lines).rstrip() + "\n"
 
 
-def _steps_tex(steps, notes_of=lambda k: []) -> List[str]:
-    """Steps as an enumerated list: title, explanation, one ``equation*`` per top-level formula."""
+def _steps_tex(steps, notes_of=lambda k: [], width_em: float = PAGE_WIDTH_EM) -> List[str]:
+    """Steps as an enumerated list: title, explanation, one ``equation*`` per top-level formula
+    (wrapped at the page's width as the page wraps it at the panel's)."""
     if not steps:
         return []
     lines = ["\\begin{enumerate}"]
@@ -110,7 +111,7 @@ def _steps_tex(steps, notes_of=lambda k: []) -> List[str]:
         lines.append(f"\\item \\textbf{{{text_tex(step.title)}}}")
         if step.text:
             lines.append(text_tex(step.text))
-        lines += _equations(split_top_level(step.latex) if step.latex else [])
+        lines += _equations([wrap_latex(part, width_em) for part in split_top_level(step.latex)] if step.latex else [])
         lines += [f"\\emph{{Note on the printed solution:}} {text_tex(note)}" for note in notes_of(k)]
         lines.append("")
     lines.append("\\end{enumerate}")

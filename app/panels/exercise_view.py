@@ -17,6 +17,7 @@ from typing import Any, Dict, List, Optional, Sequence, Union
 import numpy as np
 import sympy as sp
 
+from app.core.formula_layout import wrap_latex
 from app.viewer import mathml
 
 ACCENT = "#2e5eaa"
@@ -116,100 +117,6 @@ def hint_legend(highlight: Dict[str, Any], arrow_scale: Optional[float] = None) 
     if not parts:
         return ""
     return '<div class="r2-label">' + "<br>".join(parts) + "</div>"
-
-
-def _width(latex: str) -> float:
-    return mathml.estimate_width_em(re.sub(r"\\(begin|end)\{[a-z]*\}", "", latex))
-
-
-def _top_level_breaks(latex: str) -> List[tuple]:
-    """(index, symbol) of the top-level '=', '+' and binary '-' of a formula (not inside braces,
-    \\left...\\right or environments)."""
-    out, depth, i, last = [], 0, 0, ""
-    while i < len(latex):
-        for word, change in ((r"\left", 1), (r"\right", -1), (r"\begin", 1), (r"\end", -1)):
-            if latex.startswith(word, i) and not latex[i + len(word): i + len(word) + 1].isalpha():
-                depth += change
-                i += len(word)
-                last = "x"
-                break
-        else:
-            ch = latex[i]
-            if ch == "\\":
-                m = re.match(r"\\[A-Za-z]+|\\.", latex[i:])
-                i += len(m.group(0))
-                last = "x"
-                continue
-            if ch in "{([":
-                depth += 1
-            elif ch in "})]":
-                depth -= 1
-            elif depth == 0 and ch == ",":
-                out.append((i, ch))
-            elif depth == 0 and ch in "=+-" and (ch == "=" or last not in ("", "=", "+", "-", "(", ",", "&")):
-                out.append((i, ch))
-            if not ch.isspace():
-                last = ch
-            i += 1
-    return out
-
-
-def wrap_latex(latex: str, width_em: float = mathml.PANEL_WIDTH_EM) -> str:
-    """A formula too wide for the side panel broken into lines at its top-level '=' (each starts a
-    line) and '+'/'-' (filled greedily), as a two-column array; narrow formulas are unchanged.
-
-    >>> wrap_latex("y = a + b")
-    'y = a + b'
-    >>> wrap_latex(r"T = 1.2165,\\ T_s = 0.3041,\\ V = 1.096,\\ A = 3.6037", 12)
-    '\\\\begin{array}{l}T = 1.2165,\\\\\\\\T_s = 0.3041,\\\\\\\\V = 1.096,\\\\\\\\A = 3.6037\\\\end{array}'
-    >>> wrap_latex("y = " + " + ".join(f"x_{{{k}}}" for k in range(30)), 20)[:36]
-    '\\\\begin{array}{rl}y & = x_{0} + x_{1}'
-    >>> wrap_latex("y = " + " + ".join(f"x_{{{k}}}" for k in range(30)), 20).count(r"\\quad + ") > 2
-    True
-    """
-    if _width(latex) <= width_em:
-        return latex
-    breaks = _top_level_breaks(latex)
-    commas = [i for i, ch in breaks if ch == ","]
-    if commas:                 # a list (a = 1, b = 2, ...): items on lines, each wrapped if needed
-        items = [latex[a:b].strip().lstrip(",").strip() for a, b in zip([0] + commas, commas + [len(latex)])]
-        items = [re.sub(r"^(\\[ ,;:!]|\\q?quad)\s*", "", it) for it in items if it]
-        lines, current = [], ""
-        for it in items:
-            if current and _width(current + r",\ " + it) > width_em:
-                lines.append(current)
-                current = it
-            else:
-                current = f"{current},\\ {it}" if current else it
-        lines.append(current)
-        if len(lines) == 1:
-            return latex
-        return r"\begin{array}{l}" + r"\\".join(wrap_latex(l + ("," if k < len(lines) - 1 else ""), width_em)
-                                                 for k, l in enumerate(lines)) + r"\end{array}"
-    breaks = [(i, ch) for i, ch in breaks if ch != ","]
-    if not breaks:
-        return latex
-    pieces, start, sym = [], 0, ""
-    for i, ch in breaks:
-        pieces.append((sym, latex[start:i].strip()))
-        start, sym = i + 1, ch
-    pieces.append((sym, latex[start:].strip()))
-    has_lhs = any(ch == "=" for _, ch in breaks)
-    lhs = pieces.pop(0)[1] if has_lhs and pieces[1:] and pieces[1][0] == "=" else ""
-    rows, current = [], ""
-    for sym, text in pieces:
-        piece = f"{sym} {text}".strip() if (sym != "=" or current or rows) else f"= {text}"
-        if sym == "=" or (current and _width(current + " " + piece) > width_em - 3):
-            if current:
-                rows.append(current)
-            current = piece
-        else:
-            current = f"{current} {piece}".strip()
-    rows.append(current)
-    if lhs:
-        lines = [f"{lhs} & {rows[0]}"] + [(f"& {r}" if r.startswith("=") else rf"& \quad {r}") for r in rows[1:]]
-        return r"\begin{array}{rl}" + r"\\".join(lines) + r"\end{array}"
-    return r"\begin{array}{l}" + r"\\".join(rows) + r"\end{array}"
 
 
 def step_html(step, index: int, count: int, current: bool = False, arrow_scale: Optional[float] = None,
