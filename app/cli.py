@@ -2,17 +2,81 @@
 ``NAME``, ``HELP``, ``add_arguments(parser)`` and ``run(args) -> int``; they are discovered
 automatically, so adding a command never touches this file.
 
-Errors caused by user input (``UserError``) print one message on stderr and exit with code 2.
+Errors caused by user input print one line ``error: ...`` on stderr and exit with code 2: a
+``UserError``, a usage error (argparse's usage text is left out), an option that is not a finite
+number or a seed outside 0 ... 2**32 - 1, a file that cannot be opened or written (``OSError``),
+input nested too deeply for the interpreter (``RecursionError``) or too big for the memory. A
+message is cut to ``MAX_MESSAGE`` characters, so it never echoes more than an excerpt of the input.
+
+>>> import contextlib, io
+>>> err = io.StringIO()
+>>> with contextlib.redirect_stderr(err):
+...     code = main(["simulate", "planar_2r", "-T", "1e999"])
+>>> code, err.getvalue().strip()
+(2, "error: argument --duration/-T: '1e999' is not a finite number")
 """
 from __future__ import annotations
 
 import argparse
 import importlib
+import math
 import pkgutil
 import sys
 from typing import List, Optional
 
 from app.core.errors import UserError
+from app.core.expressions import excerpt
+
+MAX_MESSAGE = 300
+MAX_SEED = 2 ** 32 - 1
+
+
+class UsageError(UserError):
+    """A command line argparse refuses (wrong option, missing value, bad number)."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with usage errors raised as one-line ``UsageError`` instead of usage text."""
+
+    def error(self, message):
+        raise UsageError(message)
+
+
+def finite_float(text: str) -> float:
+    """An option's number: finite (``1e308`` is, ``1e999``, ``nan``, ``inf`` are not)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{excerpt(text, 30)} is not a number") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"{excerpt(text, 30)} is not a finite number")
+    return value
+
+
+def seed(text: str) -> int:
+    """A random seed: a whole number from 0 to 2**32 - 1 (what numpy's generators accept)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{excerpt(text, 30)} is not a whole number") from None
+    if not 0 <= value <= MAX_SEED:
+        raise argparse.ArgumentTypeError(f"a seed is a whole number from 0 to {MAX_SEED}, got {excerpt(text, 30)}")
+    return value
+
+
+def _bounded_types(parser) -> None:
+    """Every float option finite, every ``--seed`` a valid seed (one rule for all commands)."""
+    for action in parser._actions:      # argparse keeps the options here; no public accessor
+        if action.type is float:
+            action.type = finite_float
+        elif action.type is int and action.dest == "seed":
+            action.type = seed
+
+
+def one_line(message: str) -> str:
+    """A message as one line of at most ``MAX_MESSAGE`` characters."""
+    message = " ".join(str(message).split())
+    return message if len(message) <= MAX_MESSAGE else message[:MAX_MESSAGE - 3] + "..."
 
 
 def _commands():
@@ -28,13 +92,14 @@ def _commands():
 
 
 def build_parser():
-    parser = argparse.ArgumentParser(prog="python -m app",
+    parser = _Parser(prog="python -m app",
                                      description="Robotics II Lab: robot dynamics and control, interactively.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     handlers = {}
     for mod in _commands():
         p = sub.add_parser(mod.NAME, help=mod.HELP, description=getattr(mod, "DESCRIPTION", mod.HELP))
         mod.add_arguments(p)
+        _bounded_types(p)
         handlers[mod.NAME] = mod
     return parser, handlers
 
@@ -46,18 +111,28 @@ def main(argv: Optional[List[str]] = None) -> int:
         argv = ["serve"] + list(argv)
     try:
         args = parser.parse_args(argv)
-    except SystemExit as exc:   # argparse: usage errors exit with 2 already
-        return int(exc.code or 0)
-    if args.command is None:
-        parser.print_help()
-        return 0
-    try:
+        if args.command is None:
+            parser.print_help()
+            return 0
         return int(handlers[args.command].run(args) or 0)
+    except SystemExit as exc:   # --help, --version
+        return int(exc.code or 0)
     except UserError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+        return _refuse(str(exc))
+    except OSError as exc:      # BrokenPipeError first: output piped into `head` and the like
+        if isinstance(exc, BrokenPipeError):
+            sys.stderr.close()
+            return 0
+        where = f"{exc.filename}: " if exc.filename else ""
+        return _refuse(f"{where}{exc.strerror or exc}")
+    except RecursionError:
+        return _refuse("the input is nested too deeply")
+    except MemoryError:
+        return _refuse("the input needs more memory than this machine has")
     except KeyboardInterrupt:
         return 130
-    except BrokenPipeError:   # output piped into `head` and the like
-        sys.stderr.close()
-        return 0
+
+
+def _refuse(message: str) -> int:
+    print(f"error: {one_line(message)}", file=sys.stderr)
+    return 2

@@ -2,6 +2,7 @@
 pinocchio (M, C q', g at random states, relative tolerance 1e-9). Exit code 1 on a mismatch."""
 NAME = "check"
 HELP = "cross-check symbolic dynamics against pinocchio"
+MAX_STATES = 100_000
 
 
 def add_arguments(p):
@@ -12,8 +13,11 @@ def add_arguments(p):
 
 def run(args) -> int:
     from app.core.numeric import cross_check
+    from app.core.errors import UserError
     from app.core.robot import list_robot_names, load_robot
 
+    if not 1 <= args.states <= MAX_STATES:
+        raise UserError(f"--states must be from 1 to {MAX_STATES}")
     names = args.robots or list_robot_names()
     bad = 0
     for name in names:

@@ -21,6 +21,8 @@ import sys
 import yaml
 
 NAME = "throw"
+MAX_BUDGET_S = 3600.0
+MAX_EVALUATIONS = 1_000_000
 HELP = "throws of the throwing arm: evaluate a VHC throw, optimize one, or reproduce the thesis"
 
 
@@ -145,11 +147,11 @@ def _optimize(args, arm) -> int:
     from app.core.errors import UserError
     from app.core.vhc import DEFAULT_EVALUATIONS, ThrowOptimizer, hand_estimate, simulate_full, speed_limit_bound
 
-    if args.budget is not None and not args.budget > 0:
-        raise UserError("--budget must be positive (seconds)")
+    if args.budget is not None and not 0 < args.budget <= MAX_BUDGET_S:
+        raise UserError(f"--budget must be positive and at most {MAX_BUDGET_S:g} seconds")
     evaluations = DEFAULT_EVALUATIONS if args.evaluations is None else args.evaluations
-    if evaluations < 1:
-        raise UserError("--evaluations must be a positive number of throw evaluations")
+    if not 1 <= evaluations <= MAX_EVALUATIONS:
+        raise UserError(f"--evaluations must be a whole number from 1 to {MAX_EVALUATIONS}")
     opt = ThrowOptimizer(arm, degree=args.degree, objective=args.objective)
     res = opt.run(seed=args.seed, evaluations=evaluations, max_seconds=args.budget, progress=_progress(not args.json))
     sims = [simulate_full(res.throw, c) for c in ("feedforward", "computed_torque")]

@@ -39,6 +39,10 @@ from .numeric import NumericModel, PinocchioTwin
 from .robot import RobotModel, load_robot
 from .trajectories import Reference, parse_reference
 
+# integration steps of one run (duration x rate x substeps): the page's longest run, 120 s at
+# 20 kHz, fits; more would take hours and fill the memory with samples
+MAX_INTEGRATION_STEPS = 2_500_000
+
 Progress = Optional[Callable[[float, str], Optional[bool]]]
 
 
@@ -633,11 +637,13 @@ def simulate(robot: Union[RobotModel, str], controller: Union[Controller, str], 
         raise SimulationError(f"the control rate must be a positive number of Hz, got {rate}")
     if int(substeps) != substeps or substeps < 1:
         raise SimulationError(f"substeps must be a positive integer, got {substeps}")
+    steps = duration * rate * substeps          # integration steps: what the run costs
+    if steps > MAX_INTEGRATION_STEPS:
+        raise SimulationError(f"{duration:g} s at {rate:g} Hz with {substeps} substeps is {steps:.3g} integration "
+                              f"steps, more than {MAX_INTEGRATION_STEPS:.2g} (duration x rate x substeps)")
     N = int(round(duration * rate))
     if N < 1:
         raise SimulationError(f"{duration} s at {rate:g} Hz is less than one control period")
-    if N > 10_000_000:
-        raise SimulationError(f"{N} control steps are too many (duration x rate <= 1e7)")
     period = 1.0 / rate
     h = period / substeps
 
