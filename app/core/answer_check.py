@@ -627,11 +627,11 @@ def check_answer(target: str, entry: str, answer: str, hint: int = 1, skew: bool
 
 
 def _is_exercise_file(path) -> bool:
+    from .files import load_yaml, read_user_file
     try:
-        import yaml
-        data = yaml.safe_load(open(path, encoding="utf-8"))
+        data = load_yaml(read_user_file(path), str(path))
         return isinstance(data, dict) and "tasks" in data
-    except Exception:
+    except UserError:
         return False
 
 

@@ -18,11 +18,11 @@ from functools import cached_property
 from pathlib import Path
 from typing import Any, Callable, Dict, List, Mapping, Optional
 
-import yaml
 
 from .dynamics import Dynamics, derive
 from .errors import UserError
 from .expressions import ExpressionError, parse_expression
+from .files import load_yaml, read_user_file
 from .robot import ParameterError, RobotModel, load_robot, parse_robot, robot_path
 from .steps import Step
 
@@ -184,10 +184,7 @@ _KEYS = {"id", "title", "robot", "question", "tasks", "exam", "number", "topics"
 
 def load_exercise(id_or_path: str | Path) -> Exercise:
     path = exercise_path(id_or_path)
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except yaml.YAMLError as exc:
-        raise ExerciseError(f"{path}: not valid YAML: {exc}") from None
+    data = load_yaml(read_user_file(path, ExerciseError), str(path), ExerciseError)
     return parse_exercise(data, str(path))
 
 
@@ -207,11 +204,14 @@ def parse_exercise(data, source: str = "<exercise>") -> Exercise:
     for i, t in enumerate(tasks):
         if isinstance(t, str):
             tasks[i] = t = {"kind": t}
-        if not isinstance(t, dict) or "kind" not in t:
-            raise ExerciseError(f"{source}: tasks[{i}]: expected a mapping with a kind")
+        if not isinstance(t, dict) or not isinstance(t.get("kind"), str):
+            raise ExerciseError(f"{source}: tasks[{i}]: expected a mapping with a kind (a name)")
         if t["kind"] not in TASKS:
             raise ExerciseError(f"{source}: tasks[{i}].kind: unknown task kind '{t['kind']}' "
                                 f"(known: {', '.join(sorted(TASKS))})")
+    for key, shape in (("given", dict), ("configuration", dict), ("topics", list), ("notes", (list, str))):
+        if data.get(key) is not None and not isinstance(data[key], shape):
+            raise ExerciseError(f"{source}: {key}: expected a {'mapping' if shape is dict else 'list'}")
     notes, targets = _parse_notes(data.get("notes") or [], source)
     return Exercise(id=str(data["id"]), title=str(data.get("title", data["id"])), robot=str(data["robot"]),
                     question=str(data["question"]), tasks=tasks, exam=str(data.get("exam", "")),
@@ -291,10 +291,24 @@ def _check_variant(exercise: Exercise, robot: RobotModel, given: Mapping[str, An
             raise ExerciseError(str(exc)) from None
 
 
+def _run_task(exercise: Exercise, ctx, spec) -> None:
+    """One task of an exercise. In a file of the user's (not a shipped exercise, which the tests
+    solve), a field of the wrong shape that the task kind trips over (a number where a list is due,
+    a list where a name is) is reported as the user's error, naming the task."""
+    from .tasks import TASKS
+    try:
+        TASKS[spec["kind"]](ctx, {k: v for k, v in spec.items() if k != "kind"})
+    except (TypeError, ValueError, KeyError, IndexError, AttributeError) as exc:
+        shipped = exercise.source and Path(exercise.source).resolve().parent == EXERCISES_DIR.resolve()
+        if isinstance(exc, UserError) or shipped or not exercise.source:
+            raise
+        raise ExerciseError(f"{exercise.source}: {ctx.current}: a field has the wrong shape or value "
+                            f"({type(exc).__name__}: {str(exc)[:80]})") from None
+
+
 def solve(exercise: Exercise, given: Optional[Mapping[str, Any]] = None,
           progress: Optional[Callable[[float, str], None]] = None) -> Solution:
     """Run every task of an exercise; ``given`` overrides the exercise's data (a variant)."""
-    from .tasks import TASKS
     robot = exercise.load_robot()
     data = dict(exercise.given)
     if given:
@@ -305,7 +319,7 @@ def solve(exercise: Exercise, given: Optional[Mapping[str, Any]] = None,
         ctx.progress(i / len(exercise.tasks), spec["kind"])
         ctx.current = f"tasks[{i}] ({spec['kind']})"
         first, before = len(ctx.steps), set(ctx.answers)
-        TASKS[spec["kind"]](ctx, {k: v for k, v in spec.items() if k != "kind"})
+        _run_task(exercise, ctx, spec)
         for name in set(ctx.answers) - before:      # an answer given before its task's first step
             if ctx.answer_steps[name] < first and len(ctx.steps) > first:
                 ctx.answer_steps[name] = first

@@ -35,14 +35,14 @@ from typing import Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 import sympy as sp
-import yaml
 from numpy.polynomial import chebyshev as npcheb
 
 from .ballistics import landing_distance
 from .dynamics import derive
 from .errors import UserError
 from .numeric import compiled_function
-from .expressions import parse_expression
+from .expressions import excerpt, parse_expression
+from .files import load_yaml, read_user_file
 from .numeric import NumericModel
 from .robot import RobotModel, load_robot
 
@@ -175,16 +175,16 @@ def _number(value, where: str) -> float:
     if isinstance(value, bool) or value is None:
         raise UserError(f"{where}: expected a number, got {value!r}")
     if isinstance(value, (int, float)):
-        out = float(value)
+        out = float(value) if abs(value) <= 1e308 else math.inf
     elif isinstance(value, str):
         try:
             out = float(parse_expression(value, allowed_names=()))
         except (UserError, TypeError) as exc:
             raise UserError(f"{where}: expected a number: {exc}") from None
     else:
-        raise UserError(f"{where}: expected a number, got {value!r}")
+        raise UserError(f"{where}: expected a number, got {excerpt(value)}")
     if not math.isfinite(out):
-        raise UserError(f"{where}: expected a finite number, got {value!r}")
+        raise UserError(f"{where}: expected a finite number, got {excerpt(value)}")
     return out
 
 
@@ -275,10 +275,7 @@ def list_throw_names() -> List[str]:
 def load_throw_config(name_or_path: str) -> ThrowConfig:
     """A shipped throw by name (``throw1``) or a YAML/JSON throw file by path."""
     path = throw_config_path(name_or_path)
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))   # JSON is YAML too
-    except (yaml.YAMLError, UnicodeDecodeError) as exc:
-        raise UserError(f"{path}: not valid YAML/JSON: {exc}") from None
+    data = load_yaml(read_user_file(path), str(path))      # JSON is YAML too
     return parse_throw_config(data, str(path))
 
 
