@@ -437,7 +437,7 @@ def main(argv=None) -> None:
     resource.setrlimit(resource.RLIMIT_AS, (cap, resource.getrlimit(resource.RLIMIT_AS)[1]))
     os.environ.setdefault("R2LAB_CACHE", tempfile.mkdtemp(prefix="r2fuzz-cache"))
     rnd = random.Random(args.seed)
-    counts, by_kind, examples = Counter(), Counter(), {}
+    counts, by_kind = Counter(), Counter()
     cpu0, wall0 = time.process_time(), time.perf_counter()
     for i in range(args.cases):
         case = make_case(rnd)
@@ -445,8 +445,10 @@ def main(argv=None) -> None:
         counts[outcome.verdict] += 1
         by_kind[(case.kind, outcome.verdict)] += 1
         if outcome.verdict in BAD:
-            examples.setdefault(outcome.verdict, []).append(outcome)
             print(f"case {i}: {outcome.verdict}: {case.describe()} -> {outcome.detail}", flush=True)
+        if (i + 1) % 250 == 0:
+            print(f"after {i + 1} cases: " + ", ".join(f"{v} {counts[v]}" for v in ("refusal", "success") + BAD)
+                  + f" ({time.perf_counter() - wall0:.0f} s wall, {time.process_time() - cpu0:.0f} s CPU)", flush=True)
     print(f"\n{args.cases} cases, seed {args.seed}, limit {args.limit:g} s of {'wall' if args.wall else 'CPU'} "
           "time per case: "
           f"{time.perf_counter() - wall0:.0f} s wall, {time.process_time() - cpu0:.0f} s CPU")

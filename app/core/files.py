@@ -55,8 +55,9 @@ def load_yaml(text: str, source: str, error: Type[UserError] = UserError):
     ...
     app.core.errors.UserError: f.yaml: not valid YAML (line 1): expected ',' or ']', but got '<stream end>'
     """
-    loader = _BoundedLoader(text)
+    loader = None
     try:
+        loader = _BoundedLoader(text)       # reads the text: a control character fails here
         return loader.get_single_data()
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
@@ -66,4 +67,5 @@ def load_yaml(text: str, source: str, error: Type[UserError] = UserError):
     except RecursionError:
         raise error(f"{source}: YAML nested too deeply") from None
     finally:
-        loader.dispose()
+        if loader is not None:
+            loader.dispose()
