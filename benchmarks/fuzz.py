@@ -279,8 +279,8 @@ def option_case(rnd: random.Random) -> Case:
         value = f"{rnd.choice(['quintic', 'sine', 'setpoint', 'bogus'])} goal={value} T={_text(nasty_value(rnd))}"
     elif option in ("--force", "--surface"):
         value = f"ee {rnd.choice(['F', 'normal', 'k'])}={value}"
-    elif option in ("--out", "--urdf") and rnd.random() < 0.5:
-        value = rnd.choice(["/nonexistent/x", "/dev/null", "/", "{dir}", "/proc/self/mem"])
+    elif option in ("--out", "--urdf"):     # files are written only inside the case's folder
+        value = rnd.choice(["/nonexistent/x", "/dev/null", "/", "{dir}", "{dir}/" + value.replace("/", "_")[:80]])
     positional = {"robot": 1, "config": 1}
     if option in positional:
         argv[positional[option]] = value
@@ -371,6 +371,8 @@ def run_case(case: Case, limit_s: float = 10.0, seed: int = 0, cpu_clock: bool =
             Path(folder, name).write_text(text, encoding="utf-8", errors="surrogatepass")
         argv = [a.replace("{dir}", folder) for a in case.argv]
         out, err = io.StringIO(), io.StringIO()
+        cwd = os.getcwd()
+        os.chdir(folder)        # a relative path in a hostile option writes there, not in the repository
         previous = signal.signal(signum, _alarm)
         start = time.perf_counter()
         code, verdict, detail = None, "", ""
@@ -388,6 +390,7 @@ def run_case(case: Case, limit_s: float = 10.0, seed: int = 0, cpu_clock: bool =
         finally:
             signal.setitimer(timer, 0)
             signal.signal(signum, previous)
+            os.chdir(cwd)
         seconds = time.perf_counter() - start
         stderr = err.getvalue()
         if not verdict:
