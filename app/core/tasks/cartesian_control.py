@@ -5,9 +5,12 @@
   a = K_P (p_d - p) - K_D J q' (``regulation``, the default); then p'' = a and each error
   component obeys e'' + k_D e' + k_P e = 0. Options: ``point`` (default ee), ``components``
   (default x, y), ``gains: {KP: [...], KD: [...]}`` (diagonal, numbers or expressions; default
-  symbols kp_x, kd_x, ...), ``reference``, ``check`` (default true: p'' = a at random states with
-  the robot file's numbers). Answers: ``p``, ``J``, ``J_dot``, ``Jdot_dq``, ``M``, ``c``, ``g``,
-  ``u``, ``error_polys`` (s^2 + k_D s + k_P per component), ``poles`` (per component, rows
+  symbols kp_x, kd_x, ...), ``frame: {angle, axes}`` (planar: the diagonal gains act along the
+  axes of a task frame rotated by a constant angle, e.g. along and across a straight path, so
+  K = R diag(k) R^T; gain symbols kp_t, kp_n, ...), ``reference``, ``check`` (default true:
+  p'' = a at random states with the robot file's numbers). Answers: ``p``, ``J``, ``J_dot``,
+  ``Jdot_dq``, ``M``, ``c``, ``g``, ``u``, ``a``, ``R``, ``K_P``, ``K_D`` (these four with
+  ``frame``), ``error_polys`` (s^2 + k_D s + k_P per component), ``poles`` (per component, rows
   [real, imaginary]), ``damping`` (zeta per component), ``oscillatory`` (complex poles),
   ``closed_loop_check`` (largest |p'' - a|).
 ``task_frame_errors``: errors in a planar task frame rotated by alpha_d(t) (``app.core.task_frame``).
@@ -98,9 +101,26 @@ def cartesian_computed_torque_task(ctx, spec):
     J_dot = m.tidy_matrix(_time_derivative(J, m))
     Jdot_dq = m.tidy_matrix(J_dot * m.dq)
     gains = spec.get("gains") or {}
-    kp = _diag(gains.get("KP"), comps, "kp", "cartesian_computed_torque.gains.KP")
-    kd = _diag(gains.get("KD"), comps, "kd", "cartesian_computed_torque.gains.KD")
+    frame = spec.get("frame")
+    if frame is not None and (not isinstance(frame, dict) or "angle" not in frame or len(comps) != 2):
+        raise ExerciseError("cartesian_computed_torque.frame: {angle, axes} of a planar task frame (two components)")
+    labels = list(frame.get("axes", ["t", "n"])) if frame else comps
+    if len(labels) != len(comps):
+        raise ExerciseError("cartesian_computed_torque.frame.axes: two labels (x_t, y_t)")
+    kp = _diag(gains.get("KP"), labels, "kp", "cartesian_computed_torque.gains.KP")
+    kd = _diag(gains.get("KD"), labels, "kd", "cartesian_computed_torque.gains.KD")
     Kp, Kd = sp.diag(*kp), sp.diag(*kd)
+    if frame:
+        R = tf.rotation2(_expr(frame["angle"], "cartesian_computed_torque.frame.angle"))
+        Kp, Kd = (R * Kp * R.T).applyfunc(sp.expand), (R * Kd * R.T).applyfunc(sp.expand)
+        ctx.answer("R", R)
+        ctx.answer("K_P", Kp)
+        ctx.answer("K_D", Kd)
+        ctx.step("Gains in the task frame", rf"R = {m.L(R)},\quad K_P = R\,{{}}^tK_P R^T = {m.L(Kp)},\quad "
+                 rf"K_D = R\,{{}}^tK_D R^T = {m.L(Kd)}",
+                 r"Diagonal gains along the axes of a task frame rotated by a constant angle ($\dot\alpha = 0$): with "
+                 r"${}^te = R^T e$ the error obeys ${}^t\ddot e + {}^tK_D\, {}^t\dot e + {}^tK_P\, {}^te = 0$, one "
+                 "decoupled second-order system per axis of the task frame.")
     p_d = sp.Matrix([symbol(f"p_d{c}") for c in comps])
     dp_d = sp.Matrix([symbol(f"dp_d{c}") for c in comps])
     ddp_d = sp.Matrix([symbol(f"ddp_d{c}") for c in comps])
@@ -118,7 +138,13 @@ def cartesian_computed_torque_task(ctx, spec):
         a_tex = r"(a_x, a_y)\ \text{(any commanded acceleration)}"
     g = m.dyn.g + m.dyn.spring
     c = m.dyn.c + m.dyn.friction
-    u = m.tidy_matrix(m.M * _inverse(J) * (a - Jdot_dq) + c + g)
+    if frame:      # the rotated gains make a long: tidy the law with a as symbols, then substitute it
+        a = a.applyfunc(sp.expand)
+        a_syms = sp.Matrix([symbol(f"a_{c}") for c in comps])
+        u = m.tidy_matrix(m.M * _inverse(J) * (a_syms - Jdot_dq) + c + g).xreplace(dict(zip(a_syms, a)))
+        ctx.answer("a", a)
+    else:
+        u = m.tidy_matrix(m.M * _inverse(J) * (a - Jdot_dq) + c + g)
     for name, value in (("p", p), ("J", J), ("J_dot", J_dot), ("Jdot_dq", Jdot_dq), ("M", m.M), ("c", m.dyn.c),
                         ("g", g), ("u", u)):
         ctx.answer(name, value)
@@ -133,7 +159,7 @@ def cartesian_computed_torque_task(ctx, spec):
     if mode == "free":
         return
     polys, poles, zetas, osc = [], [], [], []
-    for c_, kp_, kd_ in zip(comps, kp, kd):
+    for kp_, kd_ in zip(kp, kd):
         polys.append(lc.s ** 2 + kd_ * lc.s + kp_)
         poles.append(_pole_rows(kp_, kd_))
         zetas.append(sp.nsimplify(kd_ / (2 * sp.sqrt(kp_))))
@@ -143,7 +169,7 @@ def cartesian_computed_torque_task(ctx, spec):
     ctx.answer("damping", sp.Matrix(zetas))
     if all(o is not None for o in osc):
         ctx.answer("oscillatory", osc)
-    rows = [rf"e_{c_}:\ {m.L(pl)} = 0,\ \zeta = {m.L(z)}" for c_, pl, z in zip(comps, polys, zetas)]
+    rows = [rf"e_{c_}:\ {m.L(pl)} = 0,\ \zeta = {m.L(z)}" for c_, pl, z in zip(labels, polys, zetas)]
     ctx.step("Error transients", r",\quad ".join(rows),
              r"Complex poles ($\zeta < 1$) give a damped oscillation with overshoot; a double real pole ($\zeta = 1$) none.")
 
