@@ -6,6 +6,10 @@ q' = T(theta) theta' with T = df/dtheta, and the kinetic energy keeps its value,
     M_theta = T^T M(f(theta)) T,   c_theta = T^T (c(f, T theta') + M T' theta'),
     g_theta = T^T g(f(theta)),     tau_theta = T^T tau_q          (virtual work).
 
+With fewer new coordinates than old ones, f embeds holonomic constraints solved for the old
+coordinates (e.g. a closed chain whose passive angle is a function of the actuated ones): the same
+formulas give the model on the constraint (the constraint forces do no virtual work along T).
+
 >>> from app.core.robot import load_robot
 >>> from app.core.dynamics import derive
 >>> from app.core.expressions import symbol
@@ -43,7 +47,9 @@ def in_coordinates(q, dq, M, c, g, spring, q_of_theta: sp.Matrix, theta: Sequenc
     theta = sp.Matrix(list(theta))
     dtheta = sp.Matrix([symbol("d" + s.name) for s in theta])
     T = sp.Matrix(q_of_theta).jacobian(theta)
-    if T.det() == 0:
+    if T.rows < T.cols:
+        raise ValueError("more new coordinates than old ones")
+    if T.rows == T.cols and T.det() == 0:
         raise ValueError("the change of coordinates is singular (dq/dtheta is not invertible)")
     at = dict(zip(q, q_of_theta))
     at.update(zip(dq, T * dtheta))

@@ -26,8 +26,11 @@ Task kinds (options -> answers):
   the new coordinates, in order), or ``forward`` (new coordinate -> function of q: an expression,
   ``{point, component}`` or ``{angle: body}``; inverted in closed form). Answers: ``T``
   (dq/dtheta), ``q_of_new`` (f), ``J_forward`` (with ``forward``), ``M_new`` (T^T M(f(theta)) T),
-  ``g_new`` (T^T g), ``force_map`` (T^T: tau_theta = T^T tau_q), ``force_map_inverse`` (T^-T, when T
-  is invertible: tau_q = T^-T tau_theta).
+  ``g_new`` (T^T g), ``c_new`` (with ``velocity_terms: true``: T^T (c + M T' theta')), ``force_map``
+  (T^T: tau_theta = T^T tau_q), ``force_map_inverse`` (T^-T, when T is invertible: tau_q = T^-T
+  tau_theta). With fewer new coordinates than old ones (``new``/``map`` only), the map embeds
+  holonomic constraints solved for the old coordinates, e.g. the passive tilt of a closed chain as
+  a function of the actuated joints: the result is the model on the constraint.
 - ``point_kinematics``: a point of the robot (a named point, or ``{body, at}`` whose position may
   hold free symbols such as a contact abscissa). Options: ``point``, ``components`` (default
   [0, 1]: x, y), ``force`` (a force at the point, list of expressions), ``name`` (answer label,
@@ -659,8 +662,8 @@ def coordinate_map_task(ctx, spec):
         new, f = _invert_forward_map(a)
     else:
         new = spec.get("new")
-        if not isinstance(new, list) or len(new) != len(a.coords) or not all(isinstance(x, str) and x.isidentifier() for x in new):
-            raise a.fail("new", f"expected a list of {len(a.coords)} new coordinate names")
+        if not isinstance(new, list) or not 0 < len(new) <= len(a.coords) or not all(isinstance(x, str) and x.isidentifier() for x in new):
+            raise a.fail("new", f"expected a list of at most {len(a.coords)} new coordinate names")
         raw = spec.get("map")
         if not isinstance(raw, dict) or set(map(str, raw)) != set(a.coords):
             raise a.fail("map", f"expected one expression of the new coordinates for each of {', '.join(a.coords)}")
@@ -676,6 +679,7 @@ def coordinate_map_task(ctx, spec):
     T = change.T
     M_new = a.tidy_matrix(change.M)
     g_new = a.tidy_matrix(change.g)
+    c_new = a.tidy_matrix(change.c) if spec.get("velocity_terms") else None
     th = sp.Matrix(theta)
     a.ctx.step("Change of coordinates", rf"q = f(\theta) = {a.L(f)},\quad T = \frac{{\partial f}}{{\partial \theta}} = {a.L(T)}",
                r"Velocities map as $\dot q = T \dot\theta$; the kinetic energy keeps its value.")
@@ -683,12 +687,17 @@ def coordinate_map_task(ctx, spec):
                r"From $T = \frac{1}{2} \dot\theta^T (T^T M T)\, \dot\theta$.", bodies=[b.name for b in a.robot.bodies])
     a.ctx.step("Forces in the new coordinates", rf"\tau_\theta = T^T \tau_q,\quad T^T = {a.L(T.T)},\quad g_\theta = {to_latex(g_new, new)}",
                r"Virtual work: $\tau_\theta^T \dot\theta = \tau_q^T \dot q$.")
+    if c_new is not None:
+        a.ctx.step("Velocity terms in the new coordinates",
+                   rf"c_\theta = T^T\left(c(f, T\dot\theta) + M \dot T \dot\theta\right) = {to_latex(c_new, new)}",
+                   r"From $\ddot q = T \ddot\theta + \dot T \dot\theta$ substituted in the old model, premultiplied by $T^T$.")
+        a.answer("c_new", c_new)
     a.answer("T", T)
     a.answer("q_of_new", f)
     a.answer("M_new", M_new)
     a.answer("g_new", g_new)
     a.answer("force_map", T.T)
-    if not _is_zero(a.tidy(T.det())):
+    if T.rows == T.cols and not _is_zero(a.tidy(T.det())):
         inv = a.tidy_matrix(T.T.inv())
         a.ctx.step("Forces on the old coordinates", rf"\tau_q = T^{{-T}} \tau_\theta = {a.L(inv)}\,\tau_\theta",
                    "Inverting the virtual-work relation ($T$ is invertible).")
