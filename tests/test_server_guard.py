@@ -7,6 +7,7 @@ websocket client speaking viser's protocol, no browser.
 - widget values out of the widget's range or options, not finite, or other properties than the
   value are refused before any callback runs, with a message in that tab; values in range pass.
 """
+import threading
 import time
 import urllib.error
 import urllib.request
@@ -141,3 +142,31 @@ def test_out_of_range_widget_values_are_refused_with_a_message(lab):
         target = 0.5 * (low + high) + 0.123
         send(q1, {"value": target})
         wait_for(lambda: abs(session.q[0] - target) < 1e-9, timeout=10)
+
+
+def test_at_most_one_long_job_per_core_runs_at_once(lab):
+    """Server item 1 (part): heavy jobs of all tabs share ``lab.max_jobs`` slots; the others wait
+    and say so in their progress bar."""
+    lock, release = threading.Lock(), threading.Event()
+    state = {"running": 0, "peak": 0, "done": 0}
+    waiting = []
+
+    def job(progress):
+        with lock:
+            state["running"] += 1
+            state["peak"] = max(state["peak"], state["running"])
+        release.wait(10)
+        with lock:
+            state["running"] -= 1
+            state["done"] += 1
+
+    threads = [threading.Thread(target=lab.limited(job), args=(lambda f, m="": waiting.append(m),))
+               for _ in range(lab.max_jobs + 2)]
+    for t in threads:
+        t.start()
+    wait_for(lambda: len(waiting) >= 2, timeout=10)
+    assert state["peak"] == lab.max_jobs and "waiting" in waiting[0]
+    release.set()
+    for t in threads:
+        t.join(10)
+    assert state["done"] == lab.max_jobs + 2 and state["peak"] == lab.max_jobs

@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import contextlib
 import io
+import os
 import threading
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Dict, List, Optional, Tuple
+from typing import Callable, Dict, List, Optional, Tuple
 
 import viser
 
@@ -51,6 +52,8 @@ class LabServer:
             self.robot(robot)          # fail early (UserError) on an unknown robot
         self.initial_robot = robot or (DEFAULT_ROBOT if DEFAULT_ROBOT in names else names[0])
         self.verbose = verbose
+        self.max_jobs = max(1, os.cpu_count() or 1)
+        self._job_slots = threading.BoundedSemaphore(self.max_jobs)
         self.policy = HandshakePolicy(host, port)
         with self._quiet(), handshake_checked(self.policy):
             self.viser = viser.ViserServer(host=host, port=port, label="Robotics II Lab", verbose=verbose)
@@ -105,6 +108,26 @@ class LabServer:
             except Exception:    # a file being written by someone else, or broken: skip it
                 continue
         return out
+
+    # ------------------------------------------------------------------ jobs
+    def limited(self, fn: Callable) -> Callable:
+        """``fn(progress, ...)`` that first waits for one of the server's ``max_jobs`` job slots
+        (one per core: more heavy jobs at once only slow every tab down), saying so through
+        ``progress`` while it waits.
+
+        >>> lab = LabServer(port=0, verbose=False)
+        >>> lab.limited(lambda progress, x: 2 * x)(lambda f, m="": None, 21)
+        42
+        >>> lab.stop()
+        """
+        def run(progress, *args, **kwargs):
+            while not self._job_slots.acquire(timeout=0.5):
+                progress(0.0, f"waiting: the server already runs {self.max_jobs} long computations")
+            try:
+                return fn(progress, *args, **kwargs)
+            finally:
+                self._job_slots.release()
+        return run
 
     # ------------------------------------------------------------------ sessions
     def _connect(self, client) -> None:

@@ -198,8 +198,9 @@ class Session:
         """Run ``fn(progress)`` off the event thread; ``progress(fraction, message)`` drives a
         progress bar (shown when the job takes more than 0.3 s). ``on_done(result)`` runs after a
         success. A ``UserError`` becomes a clear notification, any other exception a notification
-        with the error; the page keeps working either way."""
-        return self._executor.submit(self._job, fn, progress_title, on_done)
+        with the error; the page keeps working either way. At most ``lab.max_jobs`` jobs of all
+        tabs run at once; the others wait, saying so in their progress bar."""
+        return self._executor.submit(self._job, self.lab.limited(fn), progress_title, on_done)
 
     def math_html(self, latex: str, display: bool = True) -> str:
         """HTML (for ``gui.add_html``) of a LaTeX formula, typeset as MathML with the math font."""
