@@ -6,8 +6,10 @@ weighted-pseudoinverse identities. Values follow the conventions of ``kinematic`
   options ``weights`` (diagonal list, matrix, matrix of expressions of q, or ``inertia`` for
   the robot's M(q)), ``damping`` (mu of damped least squares), ``gradient`` ({objective:
   expression of q}, {joint_range: {lower, upper}}, {potential: true} (gravity potential energy,
-  gradient g(q)) or {clearance: {point, center, radius}} (distance of a point from a circular or
-  spherical obstacle), with ``alpha`` (default 1) and ``maximize`` (default false): q'_0 = -/+ alpha grad H projected in the null space), ``preferred`` (q'_0),
+  gradient g(q)) or {clearance: {point or points, center, radius}} (distance of a point, or the
+  smallest over several points, from a circular or spherical obstacle), with ``alpha`` (default 1),
+  ``maximize`` (default false): q'_0 = -/+ alpha grad H projected in the null space, and ``safety``
+  (epsilon: where H <= epsilon the task is dropped and q' = -/+ alpha grad H alone), ``preferred`` (q'_0),
   ``fixed`` ({joint index from 1: value}), ``bounds`` ({max} or {lower, upper}: smallest task
   scaling keeping the null-space term), ``check`` ({jacobian name: task vector}: errors on other
   tasks), ``q``.
@@ -15,6 +17,7 @@ weighted-pseudoinverse identities. Values follow the conventions of ``kinematic`
   ``<name>_null``, ``<name>_projector``, ``<name>_gradient``, ``<name>_objective`` (H at q),
   ``<name>_cost`` (1/2 q'^T W q', with W the weights or the option ``cost``), ``<name>_half_norm2``,
   ``<name>_clearance_point``, ``<name>_closest_point``, ``<name>_clearance_vector`` (clearance),
+  ``<name>_clearances`` and ``<name>_closest_index`` (several points), ``<name>_task_active`` (safety),
   ``<name>_scale``/``<name>_unscaled`` (with bounds), ``<name>_error_<J>`` and
   ``<name>_error_<J>_norm`` (checks).
 ``task_priority``: ``tasks`` [{jacobian, task}, ...] by decreasing priority. Answers ``<name>``,
@@ -70,17 +73,27 @@ def _gradient(d, spec, q, n, extra=None):
     if "clearance" in spec:
         from .contact import _point_jacobian
         c = spec["clearance"]
-        J, p = _point_jacobian(d, c.get("point", "ee"), q)
         center = d.array(c["center"], "gradient.clearance.center").reshape(-1)
         radius = d.number(c.get("radius", 0.0), "gradient.clearance.radius")
-        diff = p - center
-        dist = float(np.linalg.norm(diff))
-        if dist <= 1e-12:
-            raise d._fail("gradient.clearance: the point is at the obstacle centre; the clearance has no gradient")
-        H = dist - radius
+        points = c["points"] if isinstance(c.get("points"), list) and c["points"] else [c.get("point", "ee")]
+        candidates = []
+        for k, point in enumerate(points, 1):
+            J, p = _point_jacobian(d, point, q)
+            diff = p - center
+            dist = float(np.linalg.norm(diff))
+            if dist <= 1e-12:
+                raise d._fail("gradient.clearance: a point is at the obstacle centre; the clearance has no gradient")
+            candidates.append((dist - radius, k, J, p, diff, dist))
+        H, k, J, p, diff, dist = min(candidates, key=lambda x: x[0])
         if extra is not None:
             extra.update(clearance_point=p, closest_point=center + radius * diff / dist, clearance_vector=H * diff / dist)
-        return J.T @ diff / dist, r"H = \|p(q) - c\| - r,\ \nabla_q H = J^T(q)\,\frac{p - c}{\|p - c\|}", H
+            if len(points) > 1:
+                extra.update(clearances=[x[0] for x in candidates], closest_index=k)
+        tex = r"H = \|p(q) - c\| - r,\ \nabla_q H = J^T(q)\,\frac{p - c}{\|p - c\|}"
+        if len(points) > 1:
+            tex = (r"H = \min_k \left(\|p_k(q) - c\| - r\right) = " + num(H) + rf"\ (\text{{point {k}}}),\ "
+                   r"\nabla_q H = J_k^T(q)\,\frac{p_k - c}{\|p_k - c\|}")
+        return J.T @ diff / dist, tex, H
     if "objective" in spec:
         H = d.expression(spec["objective"], "gradient.objective")
         subs = {sp.Symbol(k, real=True): v for k, v in d.scalars().items() if k not in robot.coordinates}
@@ -143,6 +156,18 @@ def pseudoinverse_task(ctx, spec):
                  vectors=[{"label": "grad H", "joint_space": True, "vector": grad.tolist(), "role": "gradient"}])
         ctx.answer(f"{name}_gradient", grad)
         ctx.answer(f"{name}_objective", H_value)
+        if "safety" in gspec:
+            epsilon = d.number(gspec["safety"], "gradient.safety")
+            ctx.answer(f"{name}_task_active", bool(H_value > epsilon))
+            if H_value <= epsilon:
+                dq = preferred
+                ctx.step("Avoidance only", rf"H = {num(H_value)} \le \epsilon = {num(epsilon)}:\quad \dot q = "
+                         + ("" if sign > 0 else "-") + rf"\alpha \nabla_q H = {vec(dq)}",
+                         "Too close to the obstacle: the task is dropped and the joints follow the gradient alone.")
+                ctx.answer(name, dq)
+                ctx.answer(f"{name}_error", v - J @ dq)
+                ctx.answer(f"{name}_error_norm", float(np.linalg.norm(v - J @ dq)))
+                return
     fixed = None
     if "fixed" in spec:
         fixed = {int(k) - 1: d.number(v, f"fixed.{k}") for k, v in spec["fixed"].items()}
