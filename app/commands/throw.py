@@ -49,6 +49,12 @@ def add_arguments(p):
                         "VHC enforcement (feedback linearization + PD) or the transverse LQR stabilizer")
     p.add_argument("--plant", default="exact",
                    help="plant file (YAML/JSON) or a shipped plant (exact, heavier) for --closed-loop")
+    p.add_argument("--catch", action="store_true",
+                   help="with --closed-loop (one controller): the catching arm catches the ball, planned from a noisy "
+                        "camera's view of the flight")
+    p.add_argument("--camera-noise", type=float, default=None,
+                   help="with --catch: standard deviation of the camera's ball positions [m] (default 0.005)")
+    p.add_argument("--camera-rate", type=float, default=None, help="with --catch: pictures per second (default 100)")
     p.add_argument("--monte-carlo", type=int, metavar="N",
                    help="with --closed-loop: N plants drawn from the plant file's uncertainty ranges (seed: --seed)")
 
@@ -202,6 +208,27 @@ def closed_loop_json(run, planned_distance: float, j: int = 0) -> dict:
             "position_violation": bool(run.position_violation[j]), "violation": bool(run.violation[j])}
 
 
+def _catch(args, throw, plant, names) -> dict:
+    from app.core.errors import UserError
+    from app.core.throw_catch import CAMERA_NOISE, CAMERA_RATE, throw_and_catch
+
+    if len(names) != 1:
+        raise UserError("--catch needs one controller (--closed-loop open, vhc or transverse)")
+    noise = CAMERA_NOISE if args.camera_noise is None else args.camera_noise
+    rate = CAMERA_RATE if args.camera_rate is None else args.camera_rate
+    r = throw_and_catch(throw, plant, names[0], rate=rate, noise=noise, seed=args.seed)
+    vec = lambda a: None if a is None else _floats(a)
+    out = {"controller": r.controller, "success": r.success, "miss": r.miss if r.catch_time is not None else None,
+           "message": r.message, "catch_time": r.catch_time, "catch_point": vec(r.catch_point), "hand": vec(r.hand),
+           "ball": vec(r.ball), "catcher_base": [r.base_x, 0.0], "camera_rate": rate, "camera_noise": noise,
+           "camera_pictures": int(r.camera_times.size), "release_position": vec(r.release_position),
+           "release_velocity": vec(r.release_velocity), "estimated_release_velocity": vec(r.estimate.v0)}
+    if not args.json:
+        print(f"plant: {plant.title}; thrown with {r.controller}, camera {rate:g} pictures/s, noise {1e3 * noise:g} mm")
+        print(f"  {r.message}" + (f" at t = {r.catch_time:.3f} s after the release" if r.catch_time else ""))
+    return out
+
+
 def _closed_loop(args, throw) -> dict:
     from app.core.errors import UserError
     from app.core.throw_control import CONTROLLERS, load_plant, simulate_closed_loop
@@ -223,6 +250,8 @@ def _closed_loop(args, throw) -> dict:
             print(f"plant: {plant.title}")
             print(format_summary(study))
         return out
+    if args.catch:
+        return {**out, "catch": _catch(args, throw, plant, names)}
     runs = [simulate_closed_loop(throw, n, plant, seed=args.seed) for n in names]
     out["runs"] = [closed_loop_json(r, planned) for r in runs]
     if not args.json:
@@ -254,8 +283,8 @@ def run(args) -> int:
         return _optimize(args, arm)
     if cfg is None:
         raise UserError("give a throw file or a shipped throw (throw1, throw2, throw3), or --optimize, or --thesis")
-    if args.monte_carlo is not None and not args.closed_loop:
-        raise UserError("--monte-carlo needs --closed-loop")
+    if (args.monte_carlo is not None or args.catch) and not args.closed_loop:
+        raise UserError("--monte-carlo and --catch need --closed-loop")
     throw = arm.solve(cfg.spec)
     feas = throw.check()
     sims = [simulate_full(throw, c) for c in ("feedforward", "computed_torque")] if args.verify else []
