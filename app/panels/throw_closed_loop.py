@@ -16,6 +16,7 @@ import numpy as np
 
 from app.core.errors import UserError
 from app.core.throw_control import CONTROLLERS, list_plant_names, load_plant
+from app.core.throw_catch import CAMERA_NOISE, CAMERA_RATE, ThrowAndCatch, throw_and_catch
 from app.core.throw_montecarlo import Study, histogram, monte_carlo
 
 from .throw_plots import BLOCK
@@ -152,9 +153,23 @@ class ClosedLoopTab:
         self.table = gui.add_html("")
         self.hist = gui.add_html("")
         self.scatter = gui.add_html("")
+        gui.add_html(f'<div class="r2-label" style="font-size:0.8em;color:#444;{BLOCK}"><b>Throw and catch.</b> The '
+                     'catching arm (coursework 4M20) stands 0.5 m beyond the planned landing point and catches the '
+                     'ball, planned from a camera\'s noisy pictures of the flight (least-squares estimate), not from '
+                     'the release state. The throw uses the plant above (its nominal values).</div>')
+        self.catch_controller = gui.add_dropdown("Thrower", list(CONTROLLERS), initial_value="transverse",
+                                                 hint="the throwing arm's controller")
+        self.camera_rate = gui.add_slider("Camera [pictures/s]", min=10.0, max=500.0, step=10.0,
+                                          initial_value=CAMERA_RATE)
+        self.camera_noise = gui.add_slider("Camera noise [mm]", min=0.0, max=30.0, step=0.5,
+                                           initial_value=1e3 * CAMERA_NOISE, hint="standard deviation per axis")
+        self.catch_button = gui.add_button("Throw and catch", hint="simulate the throw, the camera and the catch")
+        self.catch_result = gui.add_html("")
         self.study: Optional[Study] = None
+        self.catch: Optional[ThrowAndCatch] = None
         self._running = False
         self.run_button.on_click(lambda _e: self.studio._guarded(self.run))
+        self.catch_button.on_click(lambda _e: self.studio._guarded(self.throw_and_catch))
 
     def plant_with_ranges(self):
         plant = load_plant(self.plant.value)
@@ -209,6 +224,62 @@ class ClosedLoopTab:
         if wait:
             future.result()
         return future
+
+    def throw_and_catch(self, wait: bool = False):
+        """Throw the ball on the chosen plant, watch it with the camera and catch it (in the background)."""
+        studio = self.studio
+        view = studio.view
+        if view is None or studio.error:
+            raise UserError("there is no throw to catch: " + (studio.error or "none solved yet"))
+        plant = load_plant(self.plant.value)
+        controller, seed = self.catch_controller.value, int(self.seed.value)
+        rate, noise = float(self.camera_rate.value), 1e-3 * float(self.camera_noise.value)
+        self.catch_button.disabled = True
+        self.catch_result.content = studio._status("throwing, watching, catching ...")
+
+        def work(progress):
+            progress(0.1, f"throwing ({controller})")
+            try:
+                return throw_and_catch(view.throw, plant, controller, rate=rate, noise=noise, seed=seed)
+            finally:
+                if studio._alive():
+                    self.catch_button.disabled = False
+
+        def done(result):
+            if studio._alive():
+                self.show_catch(result)
+
+        future = studio.session.run_in_background(work, "Throw and catch", on_done=done)
+        if wait:
+            future.result()
+        return future
+
+    def show_catch(self, r: ThrowAndCatch) -> None:
+        """The outcome as text and the catch in the 3D view: the catching arm at its catch pose, the
+        camera's pictures and the planned catch point beside the true ball."""
+        self.catch = r
+        color = "#1e7b34" if r.success else "#b3261e"
+        detail = (f" at {r.catch_time:.3f} s after the release; {r.camera_times.size} pictures, "
+                  f"estimated release speed {np.hypot(*r.estimate.v0):.3f} m/s (true {np.hypot(*r.release_velocity):.3f})"
+                  if r.catch_time is not None else "")
+        self.catch_result.content = (f'<div class="r2-catch-result" data-success="{str(r.success).lower()}" '
+                                     f'style="font-size:0.85em;color:{color};{BLOCK}"><b>{html.escape(r.message)}</b>'
+                                     f'{html.escape(detail)}</div>')
+        nodes = self.studio.nodes
+        base = np.array([r.base_x, 0.0])
+        pictures = r.camera_positions.T
+        nodes.segments("catch_pictures", np.stack([pictures - [0.01, 0], pictures + [0.01, 0]], axis=1),
+                       (90, 90, 90), width=2.0)
+        if r.q_catch is None:
+            nodes.remove("catch_arm")
+            nodes.remove("catch_point")
+            nodes.remove("catch_ball")
+            return
+        from app.core.catching import CatchingArm
+        arm_points = CatchingArm().joints(r.q_catch) + base
+        nodes.polyline("catch_arm", arm_points, (40, 40, 40), width=5.0)
+        nodes.sphere("catch_point", r.hand, 0.05, (30, 123, 52) if r.success else (179, 38, 30))
+        nodes.sphere("catch_ball", r.ball, 0.025, (200, 30, 30))
 
     def show(self, study: Study) -> None:
         self.study = study
