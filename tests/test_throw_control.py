@@ -142,4 +142,4 @@ def test_cli_bad_input_exits_2(capsys):
     assert main(["throw", "throw1", "--closed-loop", "vhc", "--plant", "no-such-plant"]) == 2
     assert "no plant file" in capsys.readouterr().err
     assert main(["throw", "throw1", "--monte-carlo", "5"]) == 2
-    assert "needs --closed-loop" in capsys.readouterr().err
+    assert "need --closed-loop" in capsys.readouterr().err
