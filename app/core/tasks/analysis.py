@@ -677,7 +677,7 @@ def coordinate_map_task(ctx, spec):
     except ValueError as exc:
         raise a.fail("map", str(exc)) from None
     T = change.T
-    M_new = a.tidy_matrix(change.M)
+    M_new = a.tidy_matrix(change.M).applyfunc(lambda e: _partial_fractions(e, theta))
     g_new = a.tidy_matrix(change.g)
     c_new = a.tidy_matrix(change.c) if spec.get("velocity_terms") else None
     th = sp.Matrix(theta)
@@ -702,6 +702,21 @@ def coordinate_map_task(ctx, spec):
         a.ctx.step("Forces on the old coordinates", rf"\tau_q = T^{{-T}} \tau_\theta = {a.L(inv)}\,\tau_\theta",
                    "Inverting the virtual-work relation ($T$ is invertible).")
         a.answer("force_map_inverse", inv)
+
+
+def _partial_fractions(entry, coordinates):
+    """A rational entry whose denominator depends on the coordinates, as partial fractions in the
+    first of them (constant terms apart, as a textbook writes m1 + m3/4 + Iy b(q)); others unchanged.
+
+    >>> q1, q2, a, b = sp.symbols("q1 q2 a b")
+    >>> _partial_fractions((a*(q1**2 + 1) + b)/(q1**2 + 1), [q1, q2])
+    a + b/(q1**2 + 1)
+    """
+    den = sp.fraction(sp.together(entry))[1]
+    var = next((c for c in coordinates if den.has(c)), None)
+    if var is None or not entry.is_rational_function(*coordinates):
+        return entry
+    return sp.apart(sp.cancel(entry), var)
 
 
 def _forward_entry(a: _Analysis, name: str, raw) -> sp.Expr:
