@@ -22,6 +22,7 @@ import importlib
 import math
 import pkgutil
 import sys
+import warnings
 from typing import List, Optional
 
 from app.core.errors import UserError
@@ -105,10 +106,23 @@ def build_parser():
 
 
 def main(argv: Optional[List[str]] = None) -> int:
+    """Run a command; warnings it raised (numpy's overflow on the way to a refusal, ...) are shown
+    only when it did not refuse its input, so that a refusal stays one line."""
+    with warnings.catch_warnings(record=True) as caught:     # the filters in force still apply
+        code = _main(argv)
+    if code != 2:
+        for w in caught:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+    return code
+
+
+def _main(argv: Optional[List[str]]) -> int:
     argv = sys.argv[1:] if argv is None else argv
     parser, handlers = build_parser()
     if not argv or (argv[0].startswith("-") and argv[0] not in ("-h", "--help")):
         argv = ["serve"] + list(argv)
+    if any("\x00" in arg for arg in argv):    # no file name or value holds one; the OS refuses them
+        return _refuse("an argument contains a null character")
     try:
         args = parser.parse_args(argv)
         if args.command is None:

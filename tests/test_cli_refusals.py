@@ -67,6 +67,7 @@ CASES = [
     ("solve 2004-03-25#1 --set m1=((((9**64)**64)**64)**64)", "too large"),
     ("solve 2004-03-25#1 --set m1=sqrt(-1)", "real"),
     ("derive " + LONG, ""),
+    ("sheet 2004-03-25#1 --no-pdf --out=" + str(Path("/tmp") / "a\x00b"), "null character"),
 ]
 
 
