@@ -23,6 +23,7 @@ import math
 import pkgutil
 import sys
 import warnings
+from pathlib import Path
 from typing import List, Optional
 
 from app.core.errors import UserError
@@ -128,6 +129,7 @@ def _main(argv: Optional[List[str]]) -> int:
         if args.command is None:
             parser.print_help()
             return 0
+        _check_output_folders(args)
         return int(handlers[args.command].run(args) or 0)
     except SystemExit as exc:   # --help, --version
         return int(exc.code or 0)
@@ -145,6 +147,16 @@ def _main(argv: Optional[List[str]]) -> int:
         return _refuse("the input needs more memory than this machine has")
     except KeyboardInterrupt:
         return 130
+
+
+def _check_output_folders(args) -> None:
+    """Refuse before any work an output (``--out``, ``--urdf``) whose folder does not exist."""
+    for dest in ("out", "urdf"):
+        value = getattr(args, dest, None)
+        if isinstance(value, str) and value not in ("", "-"):
+            folder = Path(value).expanduser().parent
+            if not folder.is_dir():
+                raise UserError(f"--{dest}: the folder {excerpt(str(folder), 80)} does not exist")
 
 
 def _refuse(message: str) -> int:
