@@ -1429,14 +1429,19 @@ class ThrowOptimizer:
         if bound is None or bound.convention != self.objective:
             bound = speed_limit_bound(self.arm, self.objective, seed=seed)
         pool = self.candidates(rng, candidates, bound.q)
-        scores = np.empty(len(pool))
+        pool = pool[:max(1, min(len(pool), evaluations))]        # the global stage fits in the budget too
+        scores = np.full(len(pool), -np.inf)
         for i in range(0, len(pool), 250):
+            if i and self._out_of_budget(0):
+                break
             dist, C = self.evaluate(pool[i:i + 250])
             scores[i:i + 250] = dist + 20.0 * np.sum(np.minimum(C, 0.0), axis=1)
-        report(0.05, f"global stage: {len(pool)} candidates scored")
+        report(0.05, f"global stage: {int(np.isfinite(scores).sum())} candidates scored")
         chosen: List[np.ndarray] = []
         span = self.upper - self.lower
         for j in np.argsort(-scores):
+            if not np.isfinite(scores[j]):
+                break
             if all(np.max(np.abs(pool[j] - c) / span) > 0.02 for c in chosen):
                 chosen.append(pool[j])
             if len(chosen) >= starts:
