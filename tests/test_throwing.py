@@ -342,6 +342,8 @@ def test_optimizer_budget_is_counted_in_evaluations_not_seconds(arm):
     assert quiet.evaluations == loaded.evaluations
     assert quiet.evaluations <= 1000 + 2000 and not quiet.time_capped
     assert quiet.evaluation_history == loaded.evaluation_history
-    # a budget smaller than the global stage's pool cuts the pool
-    small = ThrowOptimizer(arm).run(seed=3, evaluations=150, candidates=200, starts=1, bound=bound)
-    assert small.evaluations == 150 and small.local_runs == 0
+    # a budget smaller than the global stage's pool cuts the pool (here too small to find a throw)
+    small = ThrowOptimizer(arm)
+    with pytest.raises(VHCError, match="raise the budget"):
+        small.run(seed=3, evaluations=150, candidates=200, starts=1, bound=bound)
+    assert small.evaluations == 150
