@@ -52,7 +52,7 @@ def robot(name_or_path: str) -> RobotModel:
     """A shipped robot by name, or a robot file (YAML, docs/robot-format.md) or URDF file by path.
 
     >>> arm = robot("planar_2r")
-    >>> arm.coordinates, arm.parameters["l1"].value, arm.parameters["l1"].unit
+    >>> arm.coordinates, arm.parameters["l1"].value, arm.parameters["l1"].unit   # exact: read from the file
     (('q1', 'q2'), 1.0, 'm')
     """
     return load_robot(name_or_path)
