@@ -15,7 +15,7 @@ the widget's declared range (numbers, sliders, vectors), among its options (drop
 groups), finite, and for text at most ``MAX_TEXT_CHARS`` characters; anything else is refused
 before any callback runs, with a message in that tab.
 
->>> policy = HandshakePolicy("127.0.0.1", 8080)
+>>> policy = HandshakePolicy("127.0.0.1")
 >>> policy.refusal("/", {"Host": "127.0.0.1:8080", "Origin": "http://127.0.0.1:8080"}) is None
 True
 >>> policy.refusal("/", {"Host": "127.0.0.1:8080", "Origin": "http://evil.example.com"})
@@ -75,9 +75,8 @@ class HandshakePolicy:
     """Decides, from the request line and headers alone, whether an HTTP request or a websocket
     handshake may proceed (``refusal`` returns None) or gets 403 (the reason)."""
 
-    def __init__(self, bind_host: str, port: int, token: Optional[str] = None):
+    def __init__(self, bind_host: str, token: Optional[str] = None):
         self.loopback_only = is_loopback(bind_host)
-        self.port = port
         self.token = None if self.loopback_only else (token or secrets.token_urlsafe(16))
 
     def strip_token(self, path: str) -> Optional[str]:

@@ -54,7 +54,7 @@ class LabServer:
         self.verbose = verbose
         self.max_jobs = max(1, os.cpu_count() or 1)
         self._job_slots = threading.BoundedSemaphore(self.max_jobs)
-        self.policy = HandshakePolicy(host, port)
+        self.policy = HandshakePolicy(host)
         with self._quiet(), handshake_checked(self.policy):
             self.viser = viser.ViserServer(host=host, port=port, label="Robotics II Lab", verbose=verbose)
         guard_widget_updates(self.viser.gui, lambda handle, reason: None)
