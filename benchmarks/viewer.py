@@ -131,8 +131,9 @@ def drag(browser, seconds=3.0):
     track = page.locator("xpath=//label[normalize-space()='q1']/ancestor::div[contains(@class,'mantine-Flex-root')][1]"
                          "//*[contains(@class,'Slider-root')]").first.bounding_box()
     y = box["y"] + box["height"] / 2
+    page.evaluate("(p) => { window.__r2link2 = p; }", session.scene.robot_root + "/link2")
     page.evaluate("""() => { window.__poses = new Set(); window.__sampling = true;
-        const node = () => window.__viserMutable.nodeRefFromName['/robot/link2'];
+        const node = () => window.__viserMutable.nodeRefFromName[window.__r2link2];
         function f() { const n = node(); if (n) window.__poses.add(n.position.toArray().join(','));
                        if (window.__sampling) requestAnimationFrame(f); }
         requestAnimationFrame(f); }""")
@@ -160,7 +161,7 @@ def drag(browser, seconds=3.0):
         client, target = object(), slider
 
     page.evaluate("() => { window.__poses = new Set(); window.__sampling = true; }")
-    page.evaluate("""() => { const node = () => window.__viserMutable.nodeRefFromName['/robot/link2'];
+    page.evaluate("""() => { const node = () => window.__viserMutable.nodeRefFromName[window.__r2link2];
         function f() { const n = node(); if (n) window.__poses.add(n.position.toArray().join(','));
                        if (window.__sampling) requestAnimationFrame(f); }
         requestAnimationFrame(f); }""")

@@ -14,7 +14,7 @@ from app.scene import (HIGHLIGHT_COLOR, Framing, RobotDrawing, align_z, arrow, c
 
 Color = Tuple[int, int, int]
 
-ROBOT_ROOT = "/robot"
+ROBOT_ROOT = "/robot"     # every drawing of a robot lives under ROBOT_ROOT/d<k>, a name never reused
 OVERLAY_ROOT = "/overlay"
 ENV_ROOT = "/env"
 SIDE_PANEL_PX = 400      # the control panel floats over the right of the canvas
@@ -39,6 +39,9 @@ class SceneView:
         self.q: Optional[np.ndarray] = None          # the configuration drawn
         self._lock = threading.RLock()
         self._frames: Dict[str, object] = {}
+        self._root: Optional[object] = None           # the current drawing's root node
+        self._env_root: Optional[object] = None       # its graph paper and gravity arrow
+        self._drawings = 0                            # drawings made so far: names them
         self._meshes: List[Tuple[object, object]] = []       # (handle, part)
         self._axes: List[object] = []
         self._labels: List[object] = []
@@ -57,30 +60,45 @@ class SceneView:
         self.scene.add_light_ambient("/lights/ambient", intensity=0.9)     # the environment map's share
 
     # ------------------------------------------------------------------ robot
+    def _fresh_root(self, prefix: str) -> Tuple[str, object]:
+        """A new scene node ``prefix``d<k> for one drawing. Names are never reused: viser's browser
+        keeps the pose of a node removed and re-created under the same name within one update
+        window, which drew a new robot's link where the previous robot's link had been."""
+        self._drawings += 1
+        path = f"{prefix}d{self._drawings}"
+        return path, self.scene.add_frame(path, show_axes=False)
+
+    @property
+    def robot_root(self) -> str:
+        """Scene path of the robot drawn now (e.g. ``/robot/d3``); its frames are
+        ``<root>/<body>`` and ``<root>/<body>__joint``."""
+        return self._root.name if self._root is not None else ""
+
     def show_robot(self, drawing: RobotDrawing, q) -> None:
         """Replace the drawn robot (and its environment) by ``drawing`` at coordinates q."""
         with self._lock, self.client.atomic():
             self._remove_robot()
             self.drawing = drawing
             r = drawing.radius
+            root, self._root = self._fresh_root(f"{ROBOT_ROOT}/")
             attaches = ["base"] + [a for b in drawing.robot.bodies for a in (f"{b.name}@joint", b.name)]
             for attach in attaches:
-                self._frames[attach] = self.scene.add_frame(f"{ROBOT_ROOT}/{_node(attach)}", show_axes=False)
+                self._frames[attach] = self.scene.add_frame(f"{root}/{_node(attach)}", show_axes=False)
             for part in drawing.parts:
                 mesh = part.mesh
                 handle = self.scene.add_mesh_simple(
-                    f"{ROBOT_ROOT}/{_node(part.attach)}/{part.name}", mesh.vertices.astype(np.float32),
+                    f"{root}/{_node(part.attach)}/{part.name}", mesh.vertices.astype(np.float32),
                     mesh.faces.astype(np.uint32), color=part.color, opacity=None if part.opacity >= 1 else part.opacity,
                     flat_shading=False, cast_shadow=False, receive_shadow=False,
                     visible=self.options["coms"] or part.role != "com")
                 self._meshes.append((handle, part))
             for attach in ["base"] + [b.name for b in drawing.robot.bodies]:
                 self._axes.append(self.scene.add_frame(
-                    f"{ROBOT_ROOT}/{_node(attach)}/axes", show_axes=True, axes_length=4.5 * r,
+                    f"{root}/{_node(attach)}/axes", show_axes=True, axes_length=4.5 * r,
                     axes_radius=0.18 * r, origin_radius=0.3 * r, visible=self.options["frames"]))
             for mark in drawing.joint_marks:
                 self._labels.append(self.scene.add_label(
-                    f"{ROBOT_ROOT}/{_node(mark.attach)}/label", mark.text, position=tuple(mark.position),
+                    f"{root}/{_node(mark.attach)}/label", mark.text, position=tuple(mark.position),
                     anchor="bottom-left", font_screen_scale=1.1, visible=self.options["labels"]))
             self._draw_environment(drawing)
             if self._gravity_place is not None:       # same view as before (a parameter changed)
@@ -89,10 +107,12 @@ class SceneView:
             self._apply_highlight()
 
     def _remove_robot(self) -> None:
-        for handle in list(self._frames.values()):
-            handle.remove()
-        for handle in self._env:
-            handle.remove()
+        if self._root is not None:
+            self._root.remove()          # and every node below it
+            self._root = None
+        if self._env_root is not None:
+            self._env_root.remove()
+            self._env_root = None
         self._frames.clear()
         self._meshes.clear()
         self._axes.clear()
@@ -106,6 +126,7 @@ class SceneView:
         """Graph paper: lines in the plane of motion behind a planar robot, or on the ground under
         a spatial one. Lines only: a filled plane costs most of the frame time in software WebGL."""
         framing = drawing.framing()
+        root, self._env_root = self._fresh_root(f"{ENV_ROOT}/")
         r = drawing.radius
         size = 7.0 * framing.radius
         cell = _nice_cell(size / 14)
@@ -125,24 +146,24 @@ class SceneView:
             for seg in (((t, -half, 0.0), (t, half, 0.0)), ((-half, t, 0.0), (half, t, 0.0))):
                 segments.append(seg)
                 colors.append([sections if major else cells] * 2)
-        lines = self.scene.add_line_segments(f"{ENV_ROOT}/plane", np.array(segments, np.float32),
+        lines = self.scene.add_line_segments(f"{root}/plane", np.array(segments, np.float32),
                                              np.array(colors, np.uint8), thickness=1.0, thickness_units="screen",
                                              position=tuple(origin), wxyz=tuple(quaternion_wxyz(R)),
                                              visible=self.options["plane"])
         self._env.append(lines)
         g = drawing.gravity
         if np.linalg.norm(g) > 1e-12:
-            self._env.extend(self._gravity_arrow(drawing, framing))
+            self._env.extend(self._gravity_arrow(drawing, framing, root))
 
-    def _gravity_arrow(self, drawing: RobotDrawing, framing: Framing):
+    def _gravity_arrow(self, drawing: RobotDrawing, framing: Framing, root: str):
         """The gravity arrow (and its label) in a node of its own, placed by ``frame_camera``."""
         length = 0.22 * framing.radius
         mesh = arrow(np.zeros(3), -drawing.up * length, 0.45 * drawing.radius)
-        node = self.scene.add_frame(f"{ENV_ROOT}/gravity", show_axes=False)
-        self.scene.add_mesh_simple(f"{ENV_ROOT}/gravity/arrow", mesh.vertices.astype(np.float32),
+        node = self.scene.add_frame(f"{root}/gravity", show_axes=False)
+        self.scene.add_mesh_simple(f"{root}/gravity/arrow", mesh.vertices.astype(np.float32),
                                    mesh.faces.astype(np.uint32), color=(40, 60, 110),
                                    cast_shadow=False, receive_shadow=False)
-        self.scene.add_label(f"{ENV_ROOT}/gravity/label", "g", position=(0.0, 0.0, 0.0),
+        self.scene.add_label(f"{root}/gravity/label", "g", position=(0.0, 0.0, 0.0),
                              anchor="bottom-center", font_screen_scale=1.3)
         self._gravity = node
         return [node]
@@ -221,8 +242,8 @@ class SceneView:
                 return
             if name not in self._ghosts or self._ghosts[name][0] is not self.drawing:
                 self.remove_ghost(name)
-                root = f"/ghost_{name}"
-                frames = {}
+                root, root_handle = self._fresh_root(f"/ghost_{name}/")
+                frames = {"": root_handle}
                 for attach in ["base"] + [a for b in self.drawing.robot.bodies for a in (f"{b.name}@joint", b.name)]:
                     frames[attach] = self.scene.add_frame(f"{root}/{_node(attach)}", show_axes=False)
                 for part in self.drawing.parts:
@@ -237,6 +258,8 @@ class SceneView:
             poses = self.drawing.poses(q)
             with self.client.atomic():
                 for attach, handle in self._ghosts[name][1].items():
+                    if not attach:
+                        continue
                     T = poses[attach]
                     handle.position = T[:3, 3]
                     handle.wxyz = quaternion_wxyz(T[:3, :3])
@@ -245,20 +268,21 @@ class SceneView:
         with self._lock:
             entry = self._ghosts.pop(name, None)
             if entry is not None:
-                for handle in entry[1].values():
-                    handle.remove()
+                entry[1][""].remove()        # the ghost's root, and everything below it
 
     # ------------------------------------------------------------------ overlays
     def _node(self, name: str) -> str:
-        """Scene path of an overlay; an overlay of the same name is removed first, so that removing
-        the old handle can never touch its replacement."""
-        old = self._overlays.pop(name, None)
-        if old is not None:
-            try:
-                old.remove()
-            except Exception:     # already removed with its parent
-                pass
-        return f"{OVERLAY_ROOT}/{name}"
+        """A fresh scene path for the overlay ``name`` (``/overlay/<name>/d<k>``); an overlay of
+        the same name is removed first. Paths are never reused (see ``_fresh_root``)."""
+        with self._lock:
+            old = self._overlays.pop(name, None)
+            if old is not None:
+                try:
+                    old.remove()
+                except Exception:     # already removed with its parent
+                    pass
+            self._drawings += 1
+            return f"{OVERLAY_ROOT}/{name}/d{self._drawings}"
 
     def _put(self, name: str, handle) -> object:
         self._overlays[name] = handle
