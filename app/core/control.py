@@ -158,8 +158,7 @@ class Controller:
             passive = [c for c, a in zip(s.robot.coordinates, s.actuated) if not a]
             raise GainError(f"{self.name} needs every coordinate actuated; {', '.join(passive)} "
                             f"{'is' if len(passive) == 1 else 'are'} passive (try partial feedback linearization, "
-                            "or make every joint actuated: --passive '' on the command line, an empty "
-                            "Passive joints field in the page)")
+                            "or declare no joint passive)")
         self.reference_names, self.reference_start = self.reference_coordinates(s)
         self.prepare(s)
         self._resolve_gains()
@@ -450,7 +449,7 @@ class _PFL(Controller):
         pas = np.flatnonzero(~s.actuated)
         if pas.size == 0:
             raise GainError(f"{self.name} is for robots with a passive joint; mark one passive (e.g. "
-                            f"{s.robot.coordinates[-1]}: --passive on the command line, Passive joints in the page)")
+                            f"{s.robot.coordinates[-1]})")
         if act.size == 0:
             raise GainError(f"{self.name}: no joint is actuated")
         if not self.collocated and act.size < pas.size:

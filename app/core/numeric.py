@@ -238,6 +238,17 @@ class PinocchioTwin:
         self._Edq = sp.lambdify([q, dq], Edot_dq, "numpy")
         self.nj = len(joint_exprs)
 
+    def body_frames(self, q) -> Dict[str, np.ndarray]:
+        """World 4x4 transform of every body frame at coordinates q, by pinocchio's forward
+        kinematics (independent of the symbolic frames the drawing uses)."""
+        pin = self.pin
+        pin.forwardKinematics(self.model, self.data, np.asarray(self._theta(np.asarray(q, float)), float).ravel())
+        out = {}
+        for body in self.robot.bodies:
+            placement = self.data.oMi[self._joint_of[body.name]] * self._frame_in_joint[body.name]
+            out[body.name] = placement.homogeneous.copy()
+        return out
+
     # ------------------------------------------------------------------ springs, dampers, friction
     @cached_property
     def _stretch_springs(self):
@@ -370,8 +381,10 @@ def random_state(robot: RobotModel, rng: np.random.Generator) -> Tuple[np.ndarra
 
 def cross_check(robot: RobotModel, params: Optional[Mapping[str, float]] = None, states: int = 50,
                 seed: int = 0, tolerance: float = 1e-9, dynamics: Optional[Dynamics] = None) -> CrossCheck:
-    """Compare symbolic M, C q', g with pinocchio at random states (relative to the largest entry),
-    and the spring and friction terms with their direct evaluation from the robot file.
+    """Compare symbolic M, C q', g with pinocchio at random states, and the spring and friction
+    terms with their direct evaluation from the robot file. Errors are relative to the size of the
+    model at that state (the largest entry of M, C q' and g, at least 1): pinocchio gets C q' as
+    rnea(q, q', 0) - g, so its round-off follows the largest term, e.g. g with a mass of 1e9 kg.
     ``dynamics``: the robot's model when the caller has derived it already (else derived here)."""
     num = NumericModel(robot, params, dynamics)
     twin = PinocchioTwin(robot, num.values)
@@ -390,8 +403,10 @@ def cross_check(robot: RobotModel, params: Optional[Mapping[str, float]] = None,
             pairs.append(("spring", num.spring(q), twin.spring_forces(q)))
         if robot.has_friction:
             pairs.append(("friction", num.friction(dq), twin.friction_forces(dq)))
+        model_scale = max(1.0, *(float(np.max(np.abs(t))) for t in (Mp, cp, gp) if t.size))
         for key, a, b in pairs:
-            scale = max(1.0, float(np.max(np.abs(b))) if b.size else 1.0)
+            own = float(np.max(np.abs(b))) if b.size else 0.0
+            scale = max(1.0, own) if key in ("spring", "friction") else max(model_scale, own)
             err = float(np.max(np.abs(a - b))) / scale if a.size else 0.0
             worst[key] = max(worst[key], err)
     return CrossCheck(robot.name, states, worst, tolerance)

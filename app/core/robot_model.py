@@ -23,7 +23,7 @@ PARAMETER_KINDS = ("mass", "length", "com", "inertia", "gravity", "friction", "s
 KNOWN_KINDS = ("length", "gravity", "angle")
 GROUPS = ("exam", "throwing", "catching", "other")
 #: parameter kinds whose values must not be negative
-NON_NEGATIVE_KINDS = ("mass", "inertia", "stiffness", "friction")
+NON_NEGATIVE_KINDS = ("mass", "length", "inertia", "stiffness", "friction")
 #: the stretch variable of a nonlinear spring's force law (``force: k*delta + k3*delta**3``)
 DELTA = "delta"
 
@@ -44,7 +44,7 @@ class ParameterError(UserError):
 
 def check_parameter(name: str, kind: str, value) -> float:
     """The one rule for a parameter's value: a finite real number, not negative for the kinds in
-    NON_NEGATIVE_KINDS (masses, inertias, stiffnesses, friction). Returns it as a float.
+    NON_NEGATIVE_KINDS (masses, lengths, inertias, stiffnesses, friction). Returns it as a float.
 
     >>> check_parameter("k", "stiffness", 2)     # exact: the value as given, as a float
     2.0

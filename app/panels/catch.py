@@ -58,6 +58,7 @@ def build(session) -> None:
 
     gui = session.gui
     state = session.state.setdefault("catch", {})
+    generation = session.generation         # this panel's robot: nothing is drawn after a switch
     gui.add_markdown("A ball flies through the arm's workspace (green); the arm reaches the interception "
                      "point when the ball does, with synchronized trapezoidal joint speeds, starting from "
                      "the configuration of the sliders.")
@@ -94,7 +95,9 @@ def build(session) -> None:
         sc = session.scene
         plan, ball = result["plan"], result["ball"]
         z = lambda pts: np.column_stack([pts, np.zeros(len(pts))])
-        with session.client.atomic():
+        with session.holding(generation) as current, session.client.atomic():
+            if not current:
+                return
             for k, line in enumerate(result["region"]):
                 sc.add_line(f"catch_region{k}", z(line), (60, 150, 60), 3.0)
             sc.add_trajectory("catch_ball_path", z(result["path"]), (230, 120, 20))
@@ -124,7 +127,9 @@ def build(session) -> None:
             frames = 90
             for k in range(frames + 1):
                 t = plan.time * k / frames
-                with session.client.atomic():
+                with session.holding(generation) as current, session.client.atomic():
+                    if not current:
+                        return
                     session.scene.set_pose(plan.joint_motion([t])[:, 0])
                     session.scene.add_marker("catch_ball", [*ball.position(t), 0.0], (250, 170, 40))
                 time.sleep(max(plan.time, 1.5) / frames)

@@ -60,6 +60,20 @@ def default_controller(robot) -> str:
     return "computed_torque"
 
 
+def runs_as_is(name: str, robot) -> bool:
+    """Whether a controller runs on the robot with the panel's default fields (the robot's own
+    passive joints): a law that needs every joint actuated does not on an underactuated robot, nor
+    does a rigid-robot law on a robot with motor coordinates.
+
+    >>> from app.core.robot import load_robot
+    >>> runs_as_is("computed_torque", load_robot("elastic_2r")), runs_as_is("elastic_pd", load_robot("elastic_2r"))
+    (False, True)
+    """
+    if robot.motor_inertias and not name.startswith("elastic"):
+        return False
+    return all(robot.actuated) or not CONTROLLERS[name].needs_full_actuation
+
+
 # ====================================================================== plots
 def plot_groups(res: SimResult, true_coefficients: Optional[Sequence[float]] = None
                 ) -> List[Tuple[str, List[Tuple[str, np.ndarray, bool, int]]]]:
@@ -199,6 +213,7 @@ class ControlPanel:
         self.generation = session.generation
         self.state = session.state.setdefault("control", {})
         self.result: Optional[SimResult] = None
+        self._runs = 0                   # runs started or cleared: a run shows only if still the last
         self.true_coefficients = None
         self._replay = {"t": 0.0, "playing": False, "speed": 1.0}
         self._replay_lock = threading.Lock()
@@ -219,8 +234,8 @@ class ControlPanel:
         names = controllers_for(robot)
         self._names = names
         self._titles = {CONTROLLERS[n].title: n for n in names}
-        chosen = self.state.get("controller")
-        if chosen not in names:
+        chosen = self.state.get("controller")       # the last choice, if it runs on this robot
+        if chosen not in names or not runs_as_is(chosen, robot):
             chosen = default_controller(robot)
         self.controller = gui.add_dropdown("Controller", list(self._titles), initial_value=CONTROLLERS[chosen].title,
                                            hint="The control laws of the course")
@@ -273,6 +288,8 @@ class ControlPanel:
         name = self._name()
         cls = CONTROLLERS[name]
         self.state["controller"] = name
+        if not initial:
+            self._clear_result()      # the previous controller's plots, status and replay go
         parts = mathml.split_top_level(cls.law_latex)
         rows = "".join(f"<tr><td><code>{html.escape(g.name)}</code></td><td>{html.escape(g.doc)}</td>"
                        f"<td>{g.default:g}{' × M<sub>ii</sub>(q₀)' if g.per_inertia else ''}"
@@ -378,6 +395,8 @@ class ControlPanel:
         self.state.update(duration=self.duration.value, mismatch=self.mismatch.value, observer=self.observer.value,
                           ref_params=self.ref_params.value)
         self._stop_replay()
+        self._runs += 1
+        run = self._runs
         self.run_button.disabled = True
         self.status.content = mathml.label_html("running ...")
         title = f"Simulating {CONTROLLERS[kwargs['controller']].title}"
@@ -393,7 +412,7 @@ class ControlPanel:
                 self.run_button.disabled = False
 
         def done(res):
-            if self._alive():
+            if self._alive() and run == self._runs:    # not after a controller switch or a newer run
                 self._show_result(res, kwargs)
 
         future = self.session.run_in_background(work, title, on_done=done)
@@ -402,9 +421,25 @@ class ControlPanel:
         return future
 
     def _alive(self) -> bool:
-        return self.session.generation == self.generation and self.state.get("panel") is self
+        return (self.session.generation == self.generation and self.state.get("panel") is self
+                and not self.session.closed)
 
     # -------------------------------------------------------------- results
+    def _clear_result(self) -> None:
+        """Remove the last run: its status, replay widgets, plots, ghost and overlays."""
+        self._stop_replay()
+        self._runs += 1                  # a run still going will not show its result
+        self.result = None
+        self.status.content = ""
+        for widget in self._result_widgets:
+            widget.remove()
+        self._result_widgets, self._plots = [], []
+        scene = self.session.scene
+        for name in self._overlays:
+            scene.remove_overlay(name)
+        self._overlays = set()
+        scene.remove_ghost("control_ref")
+
     def _show_result(self, res: SimResult, kwargs) -> None:
         self.result = res
         self.true_coefficients = None
@@ -501,7 +536,9 @@ class ControlPanel:
             return
         k = int(min(len(res.t) - 1, max(0, np.searchsorted(res.t, t))))
         scene = self.session.scene
-        with self.session.client.atomic():
+        with self.session.holding(self.generation) as current, self.session.client.atomic():
+            if not current:                 # the robot was switched: draw nothing of this run
+                return
             scene.set_pose(res.q[k])
             ghost = self._reference_q(k)
             if ghost is not None:

@@ -201,6 +201,7 @@ class ExercisesPanel:
             raise UserError(f"unknown exercise '{exercise_id}'")
         with self._lock:
             self.state.update(exercise=ex, values={}, texts={}, index=-1, solution=None, solved_values=None)
+        self.session.remember(exercise=ex.id, step=None)
         label = option_label(ex)
         if label in self.picker.options and self.picker.value != label:
             self.picker.value = label
@@ -240,6 +241,7 @@ class ExercisesPanel:
         if ex is None:
             return
         if self.session.robot_name == ex.robot_ref:
+            self.session.remember(exercise=ex.id, step=str(self.index + 1) if self.index >= 0 else None)
             self.back_button.visible = False
             self._apply_scene()
         else:                                 # the student picked another robot
@@ -433,6 +435,7 @@ class ExercisesPanel:
             self.state["index"] = max(-1, min(len(sol.steps) - 1, int(k)))
             self._render()
             self._redraw()
+        self.session.remember(step=str(self.index + 1) if self.index >= 0 else None)
 
     def _render(self) -> None:
         with self._lock:          # callbacks run in a thread pool: one rendering at a time

@@ -53,7 +53,7 @@ def build(session) -> None:
 
     legend = (" Shorthand: c₁ = cos q₁, s₁₂ = sin(q₁ + q₂), and so on." if short and
               all(len(c) == 2 for c in coords) else "")
-    gui.add_html(mathml.label_html(
+    gui.add_html(f'<span class="r2-model" data-robot="{robot.name}"></span>' + mathml.label_html(
         "Symbolic model of the robot file; the blue values are evaluated at the sliders' q, the "
         "velocity q̇ below, and the current parameters." + legend))
     with gui.add_folder("Velocity q̇ for C and c", expand_by_default=False):

@@ -34,7 +34,7 @@ def build(session) -> None:
         return
     state = session.state.setdefault("steps", {})
     index = min(state.get("index", 0), len(steps) - 1) if state.get("robot") == session.robot_name else 0
-    state["robot"] = session.robot_name
+    state.update(robot=session.robot_name, index=index)     # Next and Previous start from here
     titles = [f"{k + 1}. {to_unicode(s.title)}" for k, s in enumerate(steps)]
     jump = gui.add_dropdown("Step", titles, initial_value=titles[index])
     buttons = gui.add_button_group("", ("◀ Previous", "Next ▶", "Clear light"))

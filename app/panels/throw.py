@@ -25,9 +25,10 @@ import numpy as np
 import yaml
 
 from app.core.errors import UserError
-from app.core.expressions import ExpressionError, parse_expression
+from app.core.expressions import ExpressionError, excerpt, parse_expression
 from app.core.vhc import (DEFAULT_EVALUATIONS, REQUIRED_PARAMETERS, ThrowConfig, ThrowingArm, ThrowOptimizer, ThrowSpec,
                           elevate_bezier, load_throw_config, parse_throw_config, simulate_full)
+from app.viewer.fields import CommittedField
 from app.viewer.session import Coalescer
 
 from .throw_chart import BezierChart
@@ -42,6 +43,7 @@ ORDER = 5                 # first tab of the throwing arm
 #: the load buttons: label -> shipped throw file (app/throws)
 THESIS_THROWS = {"Throw 1": "throw1", "Throw 2": "throw2", "Throw 3": "throw3"}
 OPTIMIZED_THROWS = {"θ̇ along ψ (thesis)": "optimized_thesis", "true velocity J q̇": "optimized_physical"}
+SHIPPED_THROWS = (*THESIS_THROWS.values(), *OPTIMIZED_THROWS.values())     # may come from the address
 SPEEDS = {"1x (true speed)": 1.0, "0.5x": 0.5, "0.25x": 0.25, "0.1x": 0.1}
 OBJECTIVES = {"thesis convention (θ̇ along ψ)": "thesis", "true ball velocity (J q̇)": "physical"}
 FPS = 30.0
@@ -111,8 +113,32 @@ def values_spec(values: Dict[str, object]) -> ThrowSpec:
                      int(values["branch"]))
 
 
+def parse_stiffness(text: str) -> float:
+    """The wrist spring's stiffness typed in the studio: a finite number >= 0 [N m/rad], written
+    as a number or a constant expression.
+
+    >>> parse_stiffness("1e9"), parse_stiffness("2*pi") > 6.28
+    (1000000000.0, True)
+    >>> parse_stiffness("-3")
+    Traceback (most recent call last):
+    ...
+    app.core.errors.UserError: k: the wrist spring must not be negative (got -3)
+    """
+    try:
+        value = float(parse_expression(text.strip(), allowed_names=()))
+    except (ExpressionError, TypeError, ValueError):
+        raise UserError(f"k: {excerpt(text)} is not a number") from None
+    if not math.isfinite(value):
+        raise UserError(f"k: expected a finite number, got {excerpt(text)}")
+    if value < 0:
+        raise UserError(f"k: the wrist spring must not be negative (got {value:g})")
+    return value
+
+
 class ThrowStudio:
     """One tab's Throw studio: widgets, live solving, drawings, animation, optimizer."""
+
+    shipped = SHIPPED_THROWS          # throws a page's address may name (``?throw=throw1``)
 
     def __init__(self, session):
         self.session = session
@@ -205,12 +231,18 @@ class ThrowStudio:
                                       initial_value=float(v["theta_b"]), hint="θ at the start (s = 0)")
         self.theta_e = gui.add_slider("θe [m]", min=-round(reach, 3), max=round(reach, 3), step=0.0005,
                                       initial_value=float(v["theta_e"]), hint="θ at the release (s = 1)")
-        self.k = gui.add_slider("Spring k [N m/rad]", min=0.0, max=max(200.0, float(v["k"])), step=0.01,
-                                initial_value=float(v["k"]), hint="stiffness of the wrist spring")
+        self.k = CommittedField(
+            gui.add_text("Spring k [N m/rad]", f"{float(v['k']):.6g}",
+                         hint="stiffness of the wrist spring: a number or an expression (1e3, 2*pi); "
+                              "taken when you stop typing"),
+            parse_stiffness, self._stiffness_committed,
+            lambda message: self.session.notify("Spring not changed", f"{message}; keeping k = {self.values['k']:.6g}",
+                                                error=True),
+            format=lambda value: f"{float(value):.6g}")
         self.theta_dot_b = gui.add_number("θ̇b [m/s]", float(v["theta_dot_b"]), min=0.0, max=20.0, step=0.01,
                                           hint="initial speed along θ (0: from rest)")
         for key, handle in (("psi_deg", self.psi), ("theta_b", self.theta_b), ("theta_e", self.theta_e),
-                            ("k", self.k), ("theta_dot_b", self.theta_dot_b)):
+                            ("theta_dot_b", self.theta_dot_b)):
             handle.on_update(lambda e, key=key: self._number_edited(key, e))
         gui.add_html(f'<div class="r2-label" style="font-size:0.8em;color:#555;margin-top:6px;{BLOCK}">Bézier control '
                      'points: pick one and slide it, type them all, or drag them in the chart of the 3D view.</div>')
@@ -311,12 +343,10 @@ class ThrowStudio:
     def _sync_widgets(self) -> None:
         """Every editor widget from self.values (after a load, a drag, a typed list)."""
         v = self.values
-        if float(v["k"]) > self.k.max:
-            self.k.max = float(math.ceil(v["k"]))
         self.psi.value = float(v["psi_deg"])
         self.theta_b.value = float(v["theta_b"])
         self.theta_e.value = float(v["theta_e"])
-        self.k.value = float(v["k"])
+        self.k.set(float(v["k"]))
         self.theta_dot_b.value = float(v["theta_dot_b"])
         self._sync_texts()
         options = self._point_options()
@@ -352,6 +382,11 @@ class ThrowStudio:
         with self.lock:
             self._flags |= set(flags)
         self._job.request()
+
+    def _stiffness_committed(self, value: float) -> None:
+        with self.lock:
+            self.values["k"] = value
+        self._edited()
 
     def _number_edited(self, key: str, event) -> None:
         if event.client is None:
@@ -464,6 +499,8 @@ class ThrowStudio:
     def load(self, name: str) -> None:
         """Load a shipped throw (``throw1``, ``optimized_thesis``, ...) or a throw file, then play it."""
         self.load_config(load_throw_config(name))
+        if name in SHIPPED_THROWS:
+            self.session.remember(throw=name)      # in the page's address
 
     def load_config(self, config: ThrowConfig, play: bool = True) -> None:
         if config.model:

@@ -179,7 +179,7 @@ def open_tab(lab, browser: "Browser", robot: str, tab: Optional[str] = None, wid
     """A new browser tab on ``robot`` (with the tab ``tab`` open): (page, its server-side session)."""
     before = set(lab.sessions)
     lab.initial_robot = robot
-    page = browser.page(lab.url, width, height)
+    page = browser.page(f"{lab.url}/?robot={robot}", width, height)
     wait_ready(page, robot)
     session = new_session(lab, before)
     if hide:

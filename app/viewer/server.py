@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import io
 import os
+import re
 import threading
 import traceback
 from dataclasses import dataclass
@@ -27,12 +28,47 @@ DEFAULT_ROBOT = "planar_2r"
 
 @dataclass(frozen=True)
 class RobotInfo:
-    """What the robot picker shows about a robot file."""
+    """What the robot picker shows about a robot file (and searches in)."""
     name: str
     title: str
     group: str
     description: str
     dof: int
+    joints: str = ""          # joint letters from the base: "RP", "RRR"
+    date: str = ""            # the exam's date, 2004-03-25, when the robot comes from one
+
+    @property
+    def family(self) -> str:
+        """``RP``, ``PRP``; repeated letters counted: ``3R`` for RRR.
+
+        >>> RobotInfo("x", "x", "exam", "", 3, "RRR").family, RobotInfo("y", "y", "exam", "", 2, "RP").family
+        ('3R', 'RP')
+        """
+        j = self.joints
+        return f"{len(j)}{j[0]}" if len(j) > 1 and len(set(j)) == 1 else j
+
+    def sort_key(self):
+        """Picker order: by number of joints, family, exam date, title."""
+        return (len(self.joints), self.family, self.date, self.title.lower(), self.name)
+
+    def matches(self, query: str) -> bool:
+        """Whether every word of ``query`` is in the name, title, family (``3R`` or ``RRR``) or
+        exam date (``2004-03-25``, ``2004``).
+
+        >>> info = RobotInfo("rp_2004_03_25", "Planar RP (exam 2004-03-25)", "exam", "", 2, "RP", "2004-03-25")
+        >>> info.matches("rp 2004"), info.matches("planar 03-25"), info.matches("3R")
+        (True, True, False)
+        """
+        haystack = " ".join((self.name, self.title, self.family, self.joints, self.date)).lower()
+        return all(word in haystack for word in query.lower().split())
+
+
+def robot_info(name: str, robot: RobotModel) -> RobotInfo:
+    """The picker's entry of a robot file."""
+    joints = "".join({"revolute": "R", "prismatic": "P"}.get(b.joint.type, "") for b in robot.bodies)
+    found = re.search(r"(\d{4})[-_](\d{2})[-_](\d{2})", name) or re.search(r"(\d{4})-(\d{2})-(\d{2})", robot.title)
+    date = "-".join(found.groups()) if found else ""
+    return RobotInfo(name, robot.title, robot.group, robot.description, robot.n, joints, date)
 
 
 class LabServer:
@@ -93,8 +129,8 @@ class LabServer:
         return robot
 
     def catalog(self) -> List[RobotInfo]:
-        """Every shipped robot (files are read again only when they change); broken files are
-        left out of the picker (``python -m app robots`` reports them)."""
+        """Every shipped robot in the picker's order (files are read again only when they change);
+        broken files are left out of the picker (``python -m app robots`` reports them)."""
         out = []
         for name in list_robot_names():
             try:
@@ -102,12 +138,12 @@ class LabServer:
                 cached = self._catalog.get(name)
                 if cached is None or cached[0] != mtime:
                     r = self.robot(name)
-                    cached = (mtime, RobotInfo(name, r.title, r.group, r.description, r.n))
+                    cached = (mtime, robot_info(name, r))
                     self._catalog[name] = cached
                 out.append(cached[1])
             except Exception:    # a file being written by someone else, or broken: skip it
                 continue
-        return out
+        return sorted(out, key=RobotInfo.sort_key)
 
     # ------------------------------------------------------------------ jobs
     def limited(self, fn: Callable) -> Callable:

@@ -7,6 +7,7 @@ they may use.
 """
 from __future__ import annotations
 
+import contextlib
 import html
 import math
 import threading
@@ -24,7 +25,8 @@ from app.core.expressions import ExpressionError, excerpt, parse_expression
 from app.core.numeric import NumericModel, ParameterError, cross_check
 from app.panels import PanelSpec, discover_panels_with_errors
 from app.scene import RobotDrawing, default_q
-from app.viewer import mathml
+from app.viewer import mathml, url_state
+from app.viewer.fields import CommittedField
 from app.viewer.scene_view import SceneView
 
 # order of the page's fixed elements (panels' tab group comes last)
@@ -33,8 +35,12 @@ ORDER_COORDS, ORDER_PARAMS, ORDER_DISPLAY, ORDER_TABS = 10, 11, 12, 100
 
 GROUP_LABELS = {"exam": "Exam robots", "throwing": "Throwing arm", "catching": "Catching arm",
                 "other": "Other robots"}
+ALL_GROUPS = "All robots"
+URL_WAIT = 20.0        # seconds to wait for the page to report its address before the default page
 
-REJECT_DELAY = 0.8     # seconds of quiet before a bad parameter value is refused
+
+class JobCancelled(Exception):
+    """Raised by a background job's ``progress`` when the browser tab that started it went away."""
 
 
 def parse_parameter(robot, name: str, text: str) -> float:
@@ -121,13 +127,17 @@ class Session:
         self.generation = 0
         self.closed = False
         self.ready = threading.Event()          # set when the robot's panels are built
+        self.url: Dict[str, str] = {}           # the page's state as written to its address
+        self._url_pending: Dict[str, str] = {}  # address values still to apply (after the panels)
+        self._url_serial = 0
+        self._started = threading.Event()       # the first robot was asked for
         self._lock = threading.RLock()
+        self._build_lock = threading.RLock()     # one thread builds or clears the panels at a time
         self._executor = ThreadPoolExecutor(max_workers=2, thread_name_prefix=f"session{client.client_id}")
         self._listeners: Dict[str, List] = {"robot": [], "parameters": [], "q": []}
         self._owner = threading.local()
         self._sliders: List = []
-        self._param_fields: Dict[str, object] = {}
-        self._reject_timers: Dict[str, threading.Timer] = {}
+        self._param_fields: Dict[str, CommittedField] = {}
         self._tabs = None
         self._tab_handles: Dict[str, object] = {}
         self._tab_titles: List[str] = []
@@ -173,7 +183,7 @@ class Session:
             for name, value in checked.items():
                 field = self._param_fields.get(name)
                 if field is not None:
-                    field.value = format_number(value)
+                    field.set(value)
         self._param_job.request()
 
     def on_q_change(self, callback: Callable[[np.ndarray], None]) -> None:
@@ -199,12 +209,36 @@ class Session:
         progress bar (shown when the job takes more than 0.3 s). ``on_done(result)`` runs after a
         success. A ``UserError`` becomes a clear notification, any other exception a notification
         with the error; the page keeps working either way. At most ``lab.max_jobs`` jobs of all
-        tabs run at once; the others wait, saying so in their progress bar."""
+        tabs run at once; the others wait, saying so in their progress bar. When the browser tab
+        goes away (closed, reloaded), the next ``progress`` call raises ``JobCancelled`` and the
+        job ends quietly."""
         return self._executor.submit(self._job, self.lab.limited(fn), progress_title, on_done)
 
     def math_html(self, latex: str, display: bool = True) -> str:
         """HTML (for ``gui.add_html``) of a LaTeX formula, typeset as MathML with the math font."""
         return mathml.math_html(latex, display)
+
+    @contextlib.contextmanager
+    def holding(self, generation: int):
+        """``with session.holding(gen) as current:`` - no robot switch can happen inside the block;
+        ``current`` is False when the robot of ``generation`` is no longer shown (or the tab is
+        closed). A panel drawing from a background thread (a replay) draws only when current, so
+        a switch never leaves the old robot's poses on the new one."""
+        with self._lock:
+            yield generation == self.generation and not self.closed
+
+    def remember(self, **values: Optional[str]) -> None:
+        """Put panel state into the page's address (``exercise``, ``step``, ``throw``; None
+        removes a key), so that a reload or a shared link shows it again."""
+        with self._lock:
+            for key, value in values.items():
+                if key not in url_state.KEYS:
+                    raise ValueError(f"unknown address key {key!r}")
+                if value is None:
+                    self.url.pop(key, None)
+                else:
+                    self.url[key] = str(value)
+        self._write_url()
 
     # ================================================================== page
     def _build_page(self) -> None:
@@ -215,15 +249,18 @@ class Session:
         catalog = self.lab.catalog()
         self._catalog = catalog
         groups = [g for g in GROUP_LABELS if any(info.group == g for info in catalog)]
-        self._group_options = {GROUP_LABELS[g]: g for g in groups}
-        initial = self.lab.initial_robot
-        initial_info = next((i for i in catalog if i.name == initial), catalog[0])
+        self._group_options = {ALL_GROUPS: "", **{GROUP_LABELS[g]: g for g in groups}}
         self._group_dropdown = gui.add_dropdown(
-            "Group", list(self._group_options), initial_value=GROUP_LABELS[initial_info.group],
+            "Group", list(self._group_options), initial_value=ALL_GROUPS,
             order=ORDER_PICKER, hint="Exam robots, the throwing arm of the VHC thesis, the catching arm")
+        self._find = gui.add_text("Find robot", "", order=ORDER_PICKER + 0.2,
+                                  hint="words of the name, the family (RP, 3R, PRP ...) or the exam date "
+                                       "(2004-03-25, 2019): the list below keeps the robots that match")
         self._robot_dropdown = gui.add_dropdown(
-            "Robot", self._robot_options(initial_info.group), initial_value=self._option_of(initial_info),
+            "Robot", self._robot_options(), initial_value=self._robot_options()[0],
             order=ORDER_PICKER + 0.5, hint="Pick a robot: scene, sliders and panels follow")
+        self._report = gui.add_text(url_state.BRIDGE_LABEL, "", order=ORDER_STYLE + 0.1)
+        self._url_writer = gui.add_html("", order=ORDER_STYLE + 0.2)
         self._info = gui.add_html("", order=ORDER_INFO)
         self._badge = gui.add_html(self._badge_html("pending", "pinocchio cross-check: waiting for the model"),
                                    order=ORDER_BADGE)
@@ -243,13 +280,13 @@ class Session:
 
         @self._group_dropdown.on_update
         def _(event):
-            if event.client is None:
-                return
-            group = self._group_options[self._group_dropdown.value]
-            options = self._robot_options(group)
-            self._robot_dropdown.options = options
-            self._robot_dropdown.value = options[0]
-            self._load_selected()
+            if event.client is not None:
+                self._refresh_picker()        # a group narrows the list; it loads nothing
+
+        @self._find.on_update
+        def _(event):
+            if event.client is not None:
+                self._refresh_picker()
 
         @self._robot_dropdown.on_update
         def _(event):
@@ -257,25 +294,159 @@ class Session:
                 return
             self._load_selected()
 
+        self._report.on_update(self._page_reported)
         specs, errors = discover_panels_with_errors()
         self._panel_specs = specs
         for err in errors:
             self.notify("A panel failed to load", err.splitlines()[0], error=True)
-        from_file = initial != initial_info.name and Path(initial).is_file()    # serve --robot FILE
-        self.load_robot(initial if from_file else initial_info.name)
+        self._url_writer.content = url_state.bridge_html()
+        # the first robot comes from the page's address, once the page reports it
+        timer = threading.Timer(URL_WAIT, self._start, ("",))
+        timer.daemon = True
+        timer.start()
 
-    def _robot_options(self, group: str) -> List[str]:
-        return [self._option_of(i) for i in self._catalog if i.group == group]
+    # ================================================================== picker
+    def _visible_robots(self) -> List:
+        group = self._group_options.get(self._group_dropdown.value, "")
+        query = self._find.value
+        return [i for i in self._catalog if (not group or i.group == group) and i.matches(query)]
+
+    def _robot_options(self) -> List[str]:
+        """The robot list: a first line that loads nothing (how many match), then the robots."""
+        shown = self._visible_robots()
+        head = f"— {len(shown)} robot{'' if len(shown) == 1 else 's'}: pick one —" if shown else "— no robot matches —"
+        return [head] + [self._option_of(i) for i in shown]
 
     def _option_of(self, info) -> str:
         same = [i for i in self._catalog if i.title == info.title]
-        return info.title if len(same) == 1 else f"{info.title} ({info.name})"
+        title = info.title if len(same) == 1 else f"{info.title} ({info.name})"
+        return f"{info.family} · {title}" if info.family else title
+
+    def _refresh_picker(self) -> None:
+        """The robot list after a group choice or a search; the robot shown stays loaded."""
+        with self._lock:
+            options = self._robot_options()
+            current = next((self._option_of(i) for i in self._catalog if i.name == self.robot_name), None)
+            self._robot_dropdown.options = options
+            self._robot_dropdown.value = current if current in options else options[0]
 
     def _load_selected(self) -> None:
         option = self._robot_dropdown.value
         info = next((i for i in self._catalog if self._option_of(i) == option), None)
         if info is not None and info.name != self.robot_name:
             self.load_robot(info.name)
+
+    def _sync_picker(self, name: str) -> None:
+        options = self._robot_options()
+        info = next((i for i in self._catalog if i.name == name), None)
+        if info is not None and self._option_of(info) not in options:      # shown again: list all
+            self._group_dropdown.value = ALL_GROUPS
+            self._find.value = ""
+            options = self._robot_options()
+        self._robot_dropdown.options = options
+        if info is not None:
+            self._robot_dropdown.value = self._option_of(info)
+
+    # ================================================================== the page's address
+    def _page_reported(self, event) -> None:
+        """The page reported its address (``url ?...``) or a click on a panel tab (``tab Title``)."""
+        if event.client is None:
+            return
+        kind, _, text = self._report.value.partition(" ")
+        if kind == "url":
+            self._start(text)
+        elif kind == "tab":
+            name = next((s.name for s in self._panel_specs if s.title == text), None)
+            if name is not None:
+                with self._lock:
+                    self.url["tab"] = name
+                    self._url_pending.pop("tab", None)
+                self._write_url()
+
+    def _start(self, search: str) -> None:
+        """Load the first robot: the address's (``?robot=...&tab=...``) or the default one; an
+        unknown value gets a notice and the default page."""
+        with self._lock:
+            if self._started.is_set() or self.closed:
+                return
+            self._started.set()
+        wanted = url_state.parse_query(search)
+        names = {i.name for i in self._catalog}
+        problems = [f"{k}={v}" for k, v in wanted.items() if not url_state.safe(v)]
+        wanted = {k: v for k, v in wanted.items() if url_state.safe(v)}
+        robot = wanted.pop("robot", None)
+        if robot is not None and robot not in names:
+            problems.append(f"robot={robot} (no such robot)")
+            robot, wanted = None, {}
+        initial = self.lab.initial_robot           # a shipped robot, or a file (serve --robot FILE)
+        default = initial if initial in names or Path(initial).is_file() else self._catalog[0].name
+        with self._lock:
+            self._url_pending = wanted
+        if problems:
+            self.notify("The page's address was not understood", "; ".join(problems) + ": showing the default page.",
+                        error=True)
+        self.load_robot(robot or default)
+
+    def _reveal_when_solved(self, panel, exercise: str, k: int, timeout: float = 120.0) -> None:
+        """Reveal steps 1..k+1 of the exercise the address opened, once it is solved."""
+        def wait():
+            deadline = time.time() + timeout
+            while time.time() < deadline and not self.closed:
+                if panel.exercise is None or panel.exercise.id != exercise:
+                    return                    # the student opened something else meanwhile
+                if panel.solution is not None and self.ready.is_set():
+                    panel.show(k)
+                    return
+                time.sleep(0.1)
+        threading.Thread(target=wait, daemon=True, name=f"address-step-{self.client.client_id}").start()
+
+    def _write_url(self) -> None:
+        """Write ``self.url`` into the address bar (and select the tab it names)."""
+        with self._lock:
+            if self.closed:
+                return
+            self._url_serial += 1
+            state = dict(self.url)
+            tab = state.get("tab")
+            title = next((s.title for s in self._panel_specs if s.name == tab), None)
+            select = title if title and tab in self._tab_handles else None
+            self._url_writer.content = url_state.write_html(state, select, self._url_serial)
+
+    def _apply_address(self) -> None:
+        """After the panels are built: open the tab, exercise, step and throw the address asked
+        for (each only once, and only values the panels accept)."""
+        with self._lock:
+            pending, self._url_pending = self._url_pending, {}
+        tab = pending.get("tab")
+        problems = []
+        if tab is not None:
+            if tab in self._tab_handles:
+                self.url["tab"] = tab
+            else:
+                problems.append(f"tab={tab} (not a tab of {self.robot_name})")
+        exercise = pending.get("exercise")
+        if exercise is not None:
+            panel = (self.state.get("exercises") or {}).get("panel")
+            try:
+                if panel is None:
+                    raise UserError("no Exercises panel")
+                panel.open(exercise)
+                if pending.get("step", "").isdigit():
+                    self._reveal_when_solved(panel, exercise, int(pending["step"]) - 1)
+            except Exception as exc:
+                problems.append(f"exercise={exercise} ({exc})")
+        throw = pending.get("throw")
+        if throw is not None:
+            studio = (self.state.get("throw") or {}).get("studio")
+            try:
+                if studio is None or throw not in getattr(studio, "shipped", ()):
+                    raise UserError("not a throw of the Throw studio")
+                studio.load(throw)
+            except Exception as exc:
+                problems.append(f"throw={throw} ({exc})")
+        if problems:
+            self.notify("Part of the page's address was not understood", "; ".join(problems), error=True)
+        self._write_url()
 
     # ================================================================== robot switching
     def load_robot(self, name: str) -> None:
@@ -290,6 +461,7 @@ class Session:
             self._internal_error(owner=f"drawing of {name}")
             return
         with self._lock:
+            self._started.set()
             self.generation += 1
             generation = self.generation
             self.ready.clear()
@@ -309,8 +481,14 @@ class Session:
                 self.scene.show_robot(drawing, self.q)
                 self._build_coordinates()
                 self._build_parameters()
+                self._clear_panels(robot)
             self.scene.frame_camera()
             self._sync_picker(name)
+            if self.url.get("robot") != name:      # panels put theirs back if they still apply
+                for key in ("exercise", "step", "throw"):
+                    self.url.pop(key, None)
+            self.url["robot"] = name
+        self._write_url()
 
         def work(progress):
             return derive(robot, progress=progress)
@@ -318,27 +496,23 @@ class Session:
         self.run_in_background(work, f"Deriving the model of {robot.title}",
                                on_done=lambda dyn: self._model_ready(generation, dyn))
 
-    def _sync_picker(self, name: str) -> None:
-        info = next((i for i in self._catalog if i.name == name), None)
-        if info is None:
-            return
-        group_label = GROUP_LABELS[info.group]
-        if self._group_dropdown.value != group_label:
-            self._group_dropdown.value = group_label
-            self._robot_dropdown.options = self._robot_options(info.group)
-        self._robot_dropdown.value = self._option_of(info)
-
     def _model_ready(self, generation: int, dynamics) -> None:
         with self._lock:
             if generation != self.generation:
                 return
             self.dynamics = dynamics
             self.numeric = NumericModel(self.robot, self.params, dynamics=dynamics)
-        self._build_panels()
+        self._build_panels(generation)
         with self._lock:
             if generation != self.generation:
                 return
             self._fire("robot", self.robot)
+            if self.url.get("tab") not in self._tab_handles:     # its tab is gone: the first one shows
+                self.url["tab"] = next(iter(self._tab_handles), None)
+        self._apply_address()
+        with self._lock:
+            if generation != self.generation:
+                return
             self._status.content = f'<span class="r2-status" data-ready="1" data-robot="{self.robot_name}"></span>'
             self.ready.set()
         self._check_job.request()
@@ -392,60 +566,35 @@ class Session:
         self._q_job.request()
 
     def _apply_pose(self) -> None:
-        with self._lock:
-            q = self.q.copy()
-        self.scene.set_pose(q)
+        with self._lock:        # a robot switch cannot slip between reading q and drawing it
+            self.scene.set_pose(self.q.copy())
 
     def _build_parameters(self) -> None:
         for field in self._param_fields.values():
-            field.remove()
+            field.close()
+            field.handle.remove()
         self._param_fields = {}
         robot = self.robot
         with self._param_folder:
             for name, p in robot.parameters.items():
                 unit = f" [{p.unit}]" if p.unit else ""
-                field = self.gui.add_text(f"{name}{unit}", format_number(self.params[name]),
-                                          hint=(p.doc or p.kind) + f" (default {format_number(p.value)})")
-                field.on_update(lambda event, name=name: self._parameter_typed(name, event))
-                self._param_fields[name] = field
+                handle = self.gui.add_text(f"{name}{unit}", format_number(self.params[name]),
+                                           hint=(p.doc or p.kind) + f" (default {format_number(p.value)})")
+                self._param_fields[name] = CommittedField(
+                    handle, lambda text, name=name, robot=robot: parse_parameter(robot, name, text),
+                    lambda value, name=name, robot=robot: self._parameter_committed(robot, name, value),
+                    lambda message, name=name: self.notify(
+                        "Parameter not changed", f"{message}; keeping {name} = {format_number(self.params[name])}",
+                        error=True),
+                    format=format_number)
 
-    def _parameter_typed(self, name: str, event) -> None:
-        """A parameter field changed (the browser sends every keystroke): a valid value is applied
-        at once; an invalid one is refused, with a message and the last good value restored, only
-        after the typing pauses, so that "-", "1e" or an emptied field are not rejected mid-word."""
-        if event.client is None:
-            return
-        field = event.target
+    def _parameter_committed(self, robot, name: str, value: float) -> None:
+        """A parameter field's edit was committed with a good value: model, drawing, badge follow."""
         with self._lock:
-            if self._param_fields.get(name) is not field:
-                return
-            timer = self._reject_timers.pop(name, None)
-            if timer is not None:
-                timer.cancel()
-            try:
-                value = parse_parameter(self.robot, name, field.value)
-            except ParameterError:
-                timer = threading.Timer(REJECT_DELAY, self._reject_parameter, (name, field))
-                timer.daemon = True
-                self._reject_timers[name] = timer
-                timer.start()
-                return
-            if value == self.params[name]:
+            if robot is not self.robot or value == self.params.get(name):
                 return
             self.params[name] = value
         self._param_job.request()
-
-    def _reject_parameter(self, name: str, field) -> None:
-        with self._lock:
-            if self._param_fields.get(name) is not field:
-                return
-            try:
-                parse_parameter(self.robot, name, field.value)
-                return
-            except ParameterError as exc:
-                message = f"{exc}; keeping {name} = {format_number(self.params[name])}"
-            field.value = format_number(self.params[name])
-        self.notify("Parameter not changed", message, error=True)
 
     def _apply_parameters(self) -> None:
         with self._lock:
@@ -482,7 +631,16 @@ class Session:
                 self._badge.content = self._badge_html(state, text)
 
     # ================================================================== panels
-    def _build_panels(self) -> None:
+    def _build_panels(self, generation: int) -> None:
+        """Build the panels of the robot of ``generation``; stops early when the robot is switched
+        meanwhile, and then leaves the new robot's placeholders."""
+        with self._build_lock:
+            if generation == self.generation:
+                self._build_panels_locked(generation)
+            if generation != self.generation and not self.closed:
+                self._clear_panels(self.robot)
+
+    def _build_panels_locked(self, generation: int) -> None:
         robot = self.robot
         specs = [s for s in self._panel_specs if self._safe_applies(s, robot)]
         titles = [s.title for s in specs]
@@ -494,12 +652,13 @@ class Session:
             self._tab_handles = {s.name: self._tabs.add_tab(s.title) for s in specs}
             self._tab_titles = titles
         for spec in specs:
+            if generation != self.generation:          # switched meanwhile
+                return
             if not fresh and not spec.rebuild:
                 continue
             tab = self._tab_handles[spec.name]
             self._drop_listeners(spec.name)
-            for child in tuple(tab._children.values()):   # empty the tab (viser has no public clear)
-                child.remove()
+            self._empty_tab(tab)
             self._owner.name = spec.name
             try:
                 with tab:
@@ -515,6 +674,28 @@ class Session:
                 self.notify(f"Panel {spec.title} failed", detail.strip().splitlines()[-1], error=True)
             finally:
                 self._owner.name = None
+
+    def _clear_panels(self, robot) -> None:
+        """Right after a switch, the panels rebuilt per robot show that the new model is being
+        derived (never the previous robot's matrices under the new robot's title). While panels
+        are being built in another thread, that builder does it when it notices the switch."""
+        if not self._build_lock.acquire(blocking=False):
+            return
+        try:
+            for spec in self._panel_specs:
+                tab = self._tab_handles.get(spec.name)
+                if tab is None or not spec.rebuild:
+                    continue
+                self._empty_tab(tab)
+                with tab:
+                    self.gui.add_html(mathml.label_html(f"Deriving the model of {robot.title} ..."))
+        finally:
+            self._build_lock.release()
+
+    @staticmethod
+    def _empty_tab(tab) -> None:
+        for child in tuple(tab._children.values()):   # viser has no public clear
+            child.remove()
 
     @staticmethod
     def _safe_applies(spec: PanelSpec, robot) -> bool:
@@ -571,6 +752,8 @@ class Session:
         timer.start()
 
         def progress(fraction: float, message: str = "") -> None:
+            if self.closed:
+                raise JobCancelled(title)
             with lock:
                 state["fraction"], state["message"] = float(fraction), message
                 if state["bar"] is not None:
@@ -580,8 +763,11 @@ class Session:
         try:
             result = fn(progress)
             if on_done is not None:
-                on_done(result)
+                with self._build_lock:      # panels are not rebuilt under a callback's feet
+                    on_done(result)
             return result
+        except JobCancelled:
+            pass                     # the tab went away: nobody is waiting for the result
         except UserError as exc:
             self.notify(title, str(exc), error=True)
         except Exception:
@@ -602,7 +788,8 @@ class Session:
 
     def close(self) -> None:
         """The browser tab went away: stop background work and GUI updates."""
-        self.closed = True
-        for timer in self._reject_timers.values():
-            timer.cancel()
+        with self._lock:
+            self.closed = True
+            for field in self._param_fields.values():
+                field.close()
         self._executor.shutdown(wait=False, cancel_futures=True)

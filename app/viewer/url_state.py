@@ -1,0 +1,87 @@
+"""The page's state in its address: ``/?robot=rp_2004_03_25&tab=model`` (robot, tab, exercise and
+step, throw), so that a reload restores the page and a link can be shared with a class.
+
+viser's page does not tell the server its address, and the server cannot run scripts in it
+except through HTML: ``bridge_html`` is an image that fails to load on purpose, whose ``onerror``
+handler reports ``location.search`` (and later the panel tab selected by a click or a key) to the
+server through a hidden text field, and ``write_html`` rewrites the address bar
+(``history.replaceState``) and selects a tab. Only fixed text and values checked here go into those handlers.
+
+Exercise ids are written as their file names (``2004-03-25#1`` as ``2004-03-25_1``): viser
+rewrites the address unescaped when it connects, and a ``#`` would start the fragment.
+
+>>> parse_query("?robot=rp_2004_03_25&tab=model&exercise=2004-03-25_1&step=3&junk=1")
+{'robot': 'rp_2004_03_25', 'tab': 'model', 'exercise': '2004-03-25#1', 'step': '3'}
+>>> query_string({"robot": "rp_2004_03_25", "tab": "steps", "exercise": "2004-03-25#1", "throw": None})
+'?robot=rp_2004_03_25&tab=steps&exercise=2004-03-25_1'
+"""
+from __future__ import annotations
+
+import html
+import json
+import re
+from typing import Dict, Mapping, Optional
+from urllib.parse import parse_qsl, urlencode
+
+KEYS = ("robot", "tab", "exercise", "step", "throw")
+BRIDGE_LABEL = "r2-page-report"        # the hidden text field the page reports through
+#: a value the address may carry: names, exercise ids like 2013-07-15#1, step numbers
+SAFE_VALUE = re.compile(r"^[A-Za-z0-9_.#\-]{1,80}$")
+
+def parse_query(search: str) -> Dict[str, str]:
+    """The known keys of an address's query (``?a=b&c=d``); the first value of each wins."""
+    out: Dict[str, str] = {}
+    for key, value in parse_qsl((search or "").lstrip("?"), keep_blank_values=False):
+        if key in KEYS and key not in out:
+            out[key] = re.sub(r"_(\d+)$", r"#\1", value) if key == "exercise" else value
+    return out
+
+
+def query_string(state: Mapping[str, Optional[str]]) -> str:
+    """``?key=value&...`` of the keys set in ``state``, in the order of KEYS."""
+    items = [(k, str(state[k]).replace("#", "_")) for k in KEYS if state.get(k) not in (None, "")]
+    return "?" + urlencode(items) if items else "?"
+
+
+def _handler(js: str) -> str:
+    """An element whose ``onerror`` runs ``js`` once when inserted into the page."""
+    return f'<img alt="" src="data:," style="display:none" onerror="{html.escape(js, quote=True)}">'
+
+
+def bridge_html() -> str:
+    """Reports ``location.search`` now, and the title of every panel tab clicked later, as
+    ``url <search>`` and ``tab <title>`` through the hidden field."""
+    label = json.dumps(BRIDGE_LABEL)
+    js = ("(function(){"
+          "function field(){const l=[...document.querySelectorAll('label')].find(e=>e.textContent.trim()===" + label + ");"
+          "if(!l)return null;const row=l.closest('.mantine-Flex-root');if(!row)return null;row.style.display='none';"
+          "return row.querySelector('input');}"
+          "function report(text,n){const i=field();if(!i){if(n>0)setTimeout(()=>report(text,n-1),100);return;}"
+                    "Object.getOwnPropertyDescriptor(HTMLInputElement.prototype,'value').set.call(i,text);"
+          "i.dispatchEvent(new Event('input',{bubbles:true}));}"
+          "window.__r2report=report;"
+          "function selected(){const l=document.querySelector('[role=tablist]');"
+          "const t=l&&l.querySelector('[role=tab][aria-selected=true]');if(t)report('tab '+t.textContent.trim(),20);}"
+          "if(!window.__r2tabs){window.__r2tabs=true;for(const kind of ['click','keyup'])"
+          "document.addEventListener(kind,function(e){if(e.target.closest&&e.target.closest('[role=tab]'))"
+          "setTimeout(selected,100);},true);}"
+          "report('url '+location.search,50);})()")
+    return _handler(js)
+
+
+def write_html(state: Mapping[str, Optional[str]], select_tab: Optional[str] = None, serial: int = 0) -> str:
+    """Rewrites the address bar to ``state``; with ``select_tab`` also selects that panel tab (by
+    title, as the keyboard does: Enter on the tab) once it is in the page. ``serial`` makes every call's HTML new (so it runs again)."""
+    js = f"history.replaceState(history.state,'',{json.dumps(query_string(state))});"
+    if select_tab:
+        js += ("(function f(n){const l=document.querySelector('[role=tablist]');"
+               "const t=l&&[...l.querySelectorAll('[role=tab]')].find(e=>e.textContent.trim()===" + json.dumps(select_tab) + ");"
+               "if(t){if(t.getAttribute('aria-selected')!=='true')"
+               "t.dispatchEvent(new KeyboardEvent('keydown',{key:'Enter',bubbles:true}));}"
+               "else if(n>0)setTimeout(()=>f(n-1),100);})(60);")
+    return f'<span data-r2-url="{serial}"></span>' + _handler(js)
+
+
+def safe(value: Optional[str]) -> bool:
+    """Whether a value from the address may be used at all (checked again by its owner)."""
+    return value is not None and bool(SAFE_VALUE.match(value))
