@@ -174,12 +174,17 @@ def new_session(lab, before, timeout: float = 30.0):
     raise RuntimeError("the page connected but no session appeared")
 
 
+def page_url(lab, query: str) -> str:
+    """The address of the lab's page with a query (``robot=planar_2r&tab=model``)."""
+    return lab.url.rstrip("/") + "/?" + query
+
+
 def open_tab(lab, browser: "Browser", robot: str, tab: Optional[str] = None, width: int = WIDTH,
              height: int = HEIGHT, hide: bool = True):
     """A new browser tab on ``robot`` (with the tab ``tab`` open): (page, its server-side session)."""
     before = set(lab.sessions)
     lab.initial_robot = robot
-    page = browser.page(f"{lab.url}/?robot={robot}", width, height)
+    page = browser.page(page_url(lab, f"robot={robot}"), width, height)
     wait_ready(page, robot)
     session = new_session(lab, before)
     if hide:

@@ -1,0 +1,307 @@
+"""The page under real use (issue 11): robot switches, steps, runs, reloads, typed values, the
+picker, the page's address, and a seeded walk that checks the page after every action.
+
+Each of the ten defects of issue 11 has its test here (named after it); all share the suite's
+server and Chromium (tests/conftest.py), every test in its own browser context (tab)."""
+import time
+
+import numpy as np
+import pytest
+
+from app.viewer import screenshot as shots
+from app.viewer import walk
+from app.viewer.walk import header_violations, link_violations
+
+
+def open_page(lab, browser, query, robot):
+    """A new tab on ``/?query`` (server side session too), ready and without notifications."""
+    before = set(lab.sessions)
+    page = browser.page(shots.page_url(lab, query))
+    errors = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    page.r2_errors = errors
+    shots.wait_ready(page, robot)
+    session = shots.new_session(lab, before)
+    return page, session
+
+
+def pick(page, session, name):
+    """Choose a robot with the picker, as a user would, and wait until its panels are built."""
+    info = next(i for i in session._catalog if i.name == name)
+    shots.field(page, "Robot").click()
+    page.get_by_role("option", name=session._option_of(info), exact=True).click()
+    shots.wait_ready(page, name)
+    session.ready.wait(60)
+
+
+def assert_drawn_right(page, session):
+    """No link away from its joint in the browser, against pinocchio (a few frames of delay)."""
+    problems = []
+    for _ in range(30):
+        problems = link_violations(page, session)
+        if not problems:
+            return
+        time.sleep(0.1)
+    raise AssertionError("; ".join(problems))
+
+
+def notifications(page):
+    return page.evaluate("() => [...document.querySelectorAll('.mantine-Notification-root')].map(e => e.innerText)")
+
+
+# ====================================================================== the ten defects
+def test_links_stay_on_their_joints_after_robot_switches(lab, browser):
+    """Defect 1: a robot drawn after another kept the previous robot's node poses in the browser."""
+    page, session = open_page(lab, browser, "robot=cartesian_pp_payload", "cartesian_pp_payload")
+    try:
+        assert_drawn_right(page, session)
+        for name in ("rp_2004_03_25", "throwing_arm", "catching_arm", "elastic_2r"):
+            pick(page, session, name)
+            assert_drawn_right(page, session)
+        # the elastic 2R's ghost (the control reference) sits on the robot too
+        session.scene.ghost(session.q, "check")
+        root = session.scene._ghosts["check"][1][""].name
+        shots.wait_until(lambda: page.evaluate(walk._FRAMES_JS, [f"{root}/link1"])[f"{root}/link1"] is not None, 5,
+                         "the ghost")
+        ghost = walk._matrix(page.evaluate(walk._FRAMES_JS, [f"{root}/link1"])[f"{root}/link1"])
+        assert np.allclose(ghost, session.drawing.poses(session.q)["link1"], atol=1e-9)
+    finally:
+        page.context.close()
+
+
+def test_steps_next_and_previous_work_before_a_step_is_picked(lab, browser):
+    """Defect 2: Next and Previous raised KeyError 'index' until a step was picked."""
+    page, session = open_page(lab, browser, "robot=planar_2r&tab=steps", "planar_2r")
+    try:
+        with walk.ServerLog() as log:
+            page.get_by_role("button", name="Next ▶").first.click()
+            page.locator('.r2-step[data-step="1"]').wait_for(state="attached", timeout=5000)
+            page.get_by_role("button", name="Next ▶").first.click()
+            page.locator('.r2-step[data-step="2"]').wait_for(state="attached", timeout=5000)
+            page.get_by_role("button", name="◀ Previous").first.click()
+            page.locator('.r2-step[data-step="1"]').wait_for(state="attached", timeout=5000)
+        assert log.errors() == []
+    finally:
+        page.context.close()
+
+
+def test_switching_robot_after_a_run_leaves_no_stale_pose(lab, browser):
+    """Defect 3: after a run drew the 2R bent, the next robot (at q = 0) was drawn with the 2R's
+    link poses until a slider moved."""
+    page, session = open_page(lab, browser, "robot=planar_2r&tab=control", "planar_2r")
+    try:
+        panel = session.state["control"]["panel"]
+        panel.configure("pd_gravity", reference="setpoint by=1.2,-1.5", duration=1.0)
+        panel.run(wait=True)
+        panel.show_time(1.0)                          # the 2R drawn bent
+        assert np.max(np.abs(session.scene.q)) > 0.5
+        pick(page, session, "dh_twist_rr")
+        assert np.allclose(session.scene.q, session.q)
+        assert_drawn_right(page, session)
+        pick(page, session, "planar_2r")
+        assert np.allclose(session.q, 0.0) and np.allclose(session.scene.q, 0.0)
+        assert_drawn_right(page, session)
+    finally:
+        page.context.close()
+
+
+def test_model_tab_never_shows_the_previous_robots_matrices(lab, browser, monkeypatch):
+    """Defect 4: while a new robot's model was derived, the Model tab kept the previous M(q)."""
+    import app.viewer.session as session_module
+    real = session_module.derive
+
+    def slow(robot, progress=None):
+        time.sleep(6.0)                               # a cold derivation, as for a new spatial robot
+        return real(robot, progress=progress)
+
+    page, session = open_page(lab, browser, "robot=planar_2r&tab=model", "planar_2r")
+    try:
+        page.locator('.r2-model[data-robot="planar_2r"]').wait_for(state="attached")
+        monkeypatch.setattr(session_module, "derive", slow)
+        session.load_robot("rp_2004_03_25")
+        page.locator('.r2-status[data-robot="rp_2004_03_25"]').wait_for(state="attached")
+        page.get_by_text("Deriving the model of").first.wait_for()
+        assert session.dynamics is None                      # still deriving, and meanwhile ...
+        assert page.locator('.r2-model[data-robot="planar_2r"]').count() == 0   # no 2R matrices under the RP
+        shots.wait_ready(page, "rp_2004_03_25")
+        assert header_violations(page, session) == []
+        assert page.locator('.r2-model[data-robot="rp_2004_03_25"]').count() == 1
+    finally:
+        page.context.close()
+
+
+def test_switching_controller_clears_the_previous_run(lab, browser):
+    """Defect 5: the previous controller's plots and status stayed after switching controller."""
+    page, session = open_page(lab, browser, "robot=planar_2r&tab=control", "planar_2r")
+    try:
+        panel = session.state["control"]["panel"]
+        panel.configure("computed_torque", reference="quintic by=0.3 T=0.5", mismatch="m2=3", duration=0.5)
+        panel.run(wait=True)
+        page.get_by_text("completed").first.wait_for()
+        assert page.locator(".uplot").count() >= 2
+        shots.field(page, "Controller").click()
+        page.get_by_role("option", name="PD + on-line gravity compensation g(q)", exact=True).click()
+        shots.wait_until(lambda: panel.result is None, 5, "the run to be cleared")
+        page.wait_for_function("() => document.querySelectorAll('.uplot').length === 0", timeout=5000)
+        assert "completed" not in page.inner_text("body") and "m2=3" not in page.inner_text("body")
+    finally:
+        page.context.close()
+
+
+def test_reload_cancels_the_run_and_restores_the_page(lab, browser):
+    """Defect 6: a reload left the simulation running on the server and came back as planar 2R."""
+    page, session = open_page(lab, browser, "robot=rp_2004_03_25&tab=control", "rp_2004_03_25")
+    try:
+        page.get_by_role("tab", name="Control", exact=True).wait_for()
+        page.wait_for_function("() => document.querySelector('[role=tab][aria-selected=true]')"
+                               ".textContent.trim() === 'Control'", timeout=10000)
+        panel = session.state["control"]["panel"]
+        panel.configure("pd_gravity", reference="sine amplitude=0.3 f=0.5", duration=120.0)
+        panel.rate.value = 20000.0
+        future = panel.run()
+        shots.wait_until(lambda: page.get_by_text("Simulating").count() > 0, 10, "the run to start")
+        before = set(lab.sessions)
+        page.reload()
+        shots.wait_ready(page, "rp_2004_03_25")                  # the robot of the address
+        new = shots.new_session(lab, before)
+        shots.wait_until(future.done, 10, "the orphaned run to stop")
+        result = future.result()                      # stopped early, far from its 120 s
+        assert session.closed and (result is None or (not result.completed and result.t[-1] < 60.0))
+        page.wait_for_function("() => document.querySelector('[role=tab][aria-selected=true]')"
+                               ".textContent.trim() === 'Control'", timeout=10000)
+        assert new.robot_name == "rp_2004_03_25"
+    finally:
+        page.context.close()
+
+
+def test_pinocchio_badge_compares_relatively(lab, browser):
+    """Defect 7: at m1 = 1e9 the badge said "disagrees" for a round-off of 4.5e-7 (absolute)."""
+    page, session = open_page(lab, browser, "robot=planar_2r", "planar_2r")
+    try:
+        page.locator('.r2-badge[data-state="ok"]').wait_for(state="attached", timeout=60000)
+        walk.type_text(walk.parameter_box(page, session, "m1"), "1e9")
+        shots.wait_until(lambda: session.params["m1"] == pytest.approx(1e9, rel=1e-12), 5, "m1 = 1e9")
+        shots.wait_until(lambda: session.numeric.values["m1"] == pytest.approx(1e9, rel=1e-12), 5, "the model")
+        page.wait_for_function("() => document.querySelector('.r2-badge').dataset.state !== 'pending'",
+                               timeout=60000)
+        assert page.locator('.r2-badge[data-state="ok"]').count() == 1, page.locator(".r2-badge").inner_text()
+    finally:
+        page.context.close()
+
+
+def test_elastic_2r_control_opens_on_a_controller_that_runs(lab, browser):
+    """Defect 8: the elastic 2R's Control tab opened on computed torque (kept from the previous
+    robot), which refused to run with a command-line hint."""
+    page, session = open_page(lab, browser, "robot=planar_2r&tab=control", "planar_2r")
+    try:
+        assert session.state["control"]["panel"]._name() == "computed_torque"
+        pick(page, session, "elastic_2r")
+        panel = session.state["control"]["panel"]
+        assert panel._name().startswith("elastic")
+        panel.duration.value = 0.3
+        panel.run(wait=True)
+        assert panel.result is not None and panel.result.completed
+        assert "--passive" not in page.inner_text("body")
+    finally:
+        page.context.close()
+
+
+def test_number_fields_take_the_value_when_typing_pauses(lab, browser):
+    """Defect 9: '1e9' typed into the throw studio's spring became 19, with a notification per
+    key; negative lengths were accepted in Parameters and exercise variants."""
+    page, session = open_page(lab, browser, "robot=planar_2r", "planar_2r")
+    seen = []
+    try:
+        session.on_parameters_change(lambda values: seen.append(values["l1"]))
+        box = walk.parameter_box(page, session, "l1")
+        walk.type_text(box, "1e1")                    # "1", "1e" and "1e1" reach the server
+        shots.wait_until(lambda: session.params["l1"] == pytest.approx(10.0, rel=1e-12), 5, "l1 = 10")
+        shots.wait_until(lambda: seen, 5, "the model to follow")
+        time.sleep(0.3)
+        assert all(v == pytest.approx(10.0, rel=1e-12) for v in seen), seen        # never 1, never refused
+        assert not any("Parameter" in n for n in notifications(page))
+        walk.type_text(box, "-0.5")
+        page.get_by_text("a length must not be negative").first.wait_for(timeout=5000)
+        assert session.params["l1"] == pytest.approx(10.0, rel=1e-12) 
+        assert box.input_value() == "1e1"                # the last good text is back
+        pick(page, session, "throwing_arm")
+        shots.select_tab(page, "Throw studio")
+        studio = session.state["throw"]["studio"]
+        page.get_by_role("tab", name="Edit", exact=True).click()
+        spring = shots.field(page, "Spring k [N m/rad]")
+        walk.type_text(spring, "1e9")
+        shots.wait_until(lambda: studio.values["k"] == pytest.approx(1e9, rel=1e-12), 5, "k = 1e9")
+        assert len([n for n in notifications(page) if "Spring" in n]) <= 1
+    finally:
+        page.context.close()
+
+
+def test_picker_is_sorted_searchable_and_a_group_loads_nothing(lab, browser):
+    """Defect 10: 61 unsorted entries, typing matched nothing, a group choice loaded a robot."""
+    page, session = open_page(lab, browser, "robot=planar_2r", "planar_2r")
+    try:
+        catalog = session._catalog
+        assert [i.sort_key() for i in catalog] == sorted(i.sort_key() for i in catalog)
+        assert list(session._robot_dropdown.options[1:]) == [session._option_of(i) for i in catalog]
+        generation = session.generation
+        shots.field(page, "Group").click()
+        page.get_by_role("option", name="Catching arm", exact=True).click()
+        shots.wait_until(lambda: len(session._robot_dropdown.options) == 2, 5, "the group's list")
+        time.sleep(0.5)
+        assert session.generation == generation and session.robot_name == "planar_2r"
+        for query, expected in (("2004-03-25", "rp_2004_03_25"), ("3R 2019", "rrr_2019_04_29"),
+                                ("rp 2020-06", "rp_2020_06_05")):
+            shots.field(page, "Group").click()
+            page.get_by_role("option", name="All robots", exact=True).click()
+            shots.field(page, "Find robot").fill(query)
+            matching = [session._option_of(i) for i in catalog if i.matches(query)]
+            shots.wait_until(lambda: list(session._robot_dropdown.options[1:]) == matching, 5, query)
+            assert session._option_of(next(i for i in catalog if i.name == expected)) in matching
+            assert len(matching) < len(catalog) / 4
+        assert session.robot_name == "planar_2r"
+        pick(page, session, "rp_2020_06_05")
+    finally:
+        page.context.close()
+
+
+# ====================================================================== the page's address
+def test_address_opens_that_page_and_follows_it(lab, browser, tmp_path):
+    """``/?robot=catching_arm&tab=catch`` in a fresh tab: that robot and tab, drawn right; the
+    address follows the page; unknown values give a notice and the default page."""
+    page, session = open_page(lab, browser, "robot=catching_arm&tab=catch", "catching_arm")
+    try:
+        page.wait_for_function("() => document.querySelector('[role=tab][aria-selected=true]')"
+                               ".textContent.trim() === 'Catch'", timeout=10000)
+        assert_drawn_right(page, session)
+        assert page.r2_errors == []
+        shots.select_tab(page, "Model")
+        page.wait_for_function("() => location.search === '?robot=catching_arm&tab=model'", timeout=5000)
+        pick(page, session, "rp_2004_03_25")
+        page.wait_for_function("() => location.search === '?robot=rp_2004_03_25&tab=model'", timeout=5000)
+    finally:
+        page.context.close()
+    page, session = open_page(lab, browser, "robot=no_such_robot&tab=model", lab.initial_robot)
+    try:
+        page.get_by_text("was not understood").first.wait_for(timeout=5000)
+        assert session.robot_name == lab.initial_robot
+    finally:
+        page.context.close()
+    page, session = open_page(lab, browser, "robot=rp_2004_03_25&exercise=2004-03-25_1&step=2", "rp_2004_03_25")
+    try:
+        panel = session.state["exercises"]["panel"]
+        shots.wait_until(lambda: panel.exercise is not None and panel.index == 1, 60, "step 2 of 2004-03-25#1")
+        page.wait_for_function("() => location.search.includes('step=2')", timeout=5000)
+    finally:
+        page.context.close()
+
+
+# ====================================================================== the walk
+WALK_SEED = 11
+
+
+def test_walk_through_the_page_breaks_no_invariant(lab, browser):
+    """A seeded walk of 60 random user actions, the page checked after each (app/viewer/walk.py)."""
+    report = walk.Walk(lab, browser, WALK_SEED).run(60, walk.Walk.SHORT)
+    print(report.line())
+    assert report.violations == [], f"seed {WALK_SEED}: " + "\n".join(report.violations[:10])
+    assert report.actions == 60
