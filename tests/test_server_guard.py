@@ -28,7 +28,7 @@ def ws_url(lab, path=""):
     return f"ws://127.0.0.1:{lab.viser.get_port()}{path}"
 
 
-def wait_for(condition, timeout=20.0):
+def wait_for(condition, timeout=90.0):
     end = time.monotonic() + timeout
     while time.monotonic() < end:
         value = condition()
@@ -72,7 +72,7 @@ def test_foreign_origin_and_host_get_no_session(lab):
         urllib.request.urlopen(request, timeout=10)
     assert refused.value.code == 403
     time.sleep(0.3)
-    assert set(lab.sessions) == before
+    assert not set(lab.sessions) - before            # no new session (tabs of other tests may close meanwhile)
     # the lab's own page (same Origin) is served and its websocket opens (the next test uses it)
     with urllib.request.urlopen(f"http://{own}/", timeout=10) as page:
         assert page.status == 200 and b"<html" in page.read(2000).lower()
