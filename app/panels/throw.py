@@ -117,7 +117,7 @@ def parse_stiffness(text: str) -> float:
     """The wrist spring's stiffness typed in the studio: a finite number >= 0 [N m/rad], written
     as a number or a constant expression.
 
-    >>> parse_stiffness("1e9"), parse_stiffness("2*pi") > 6.28
+    >>> parse_stiffness("1e9"), parse_stiffness("2*pi") > 6.28    # exact: 1e9 is a float exactly
     (1000000000.0, True)
     >>> parse_stiffness("-3")
     Traceback (most recent call last):

@@ -8,6 +8,7 @@ exactly what it drew when the robot changes.
 """
 from __future__ import annotations
 
+import itertools
 import math
 import threading
 import warnings
@@ -148,6 +149,24 @@ def throw_camera(region: Tuple[float, float, float, float], width: int, height: 
     return look_at + np.array([0.0, 0.0, distance]), look_at, np.array([0.0, 1.0, 0.0])
 
 
+MAX_GROUND = 1e6        # metres of ground drawn at most (a spring of 1e9 N m/rad throws very far)
+
+
+def ground_ticks(x_to: float, most: int = 40) -> Tuple[float, int]:
+    """(tick spacing [m], label every that many ticks) for a ground line to x_to metres: 0.5 m
+    and a label every metre on a short ground, coarser (1-2-5 steps) so that at most ``most``
+    ticks are drawn on a long one.
+
+    >>> ground_ticks(3.0), ground_ticks(50.0), ground_ticks(1e8)     # exact: 1-2-5 steps
+    ((0.5, 2), (2.0, 5), (5000000.0, 2))
+    """
+    for exponent in itertools.count(-1):
+        for mantissa in (1, 2, 5):
+            step = mantissa * 10.0 ** exponent
+            if step >= 0.5 and x_to / step <= most:
+                return step, 5 if mantissa == 2 else 2
+
+
 # ====================================================================== the throw
 class ThrowDrawing:
     """The throw's overlays (see the module docstring); ``show(view)`` draws a throw, ``at(t)``
@@ -161,18 +180,22 @@ class ThrowDrawing:
         self._ground_to: Optional[float] = None
 
     def ground(self, x_to: float) -> None:
-        """The ground line y = 0 from behind the base to x_to, ticks every 0.5 m, labels every metre."""
-        x_to = max(2.0, math.ceil(x_to * 2) / 2 + 0.5)
+        """The ground line y = 0 from behind the base to x_to, with ticks and labels every
+        ``ground_ticks(x_to)`` metres (a few dozen at most, however far the ball flies)."""
+        x_to = max(2.0, math.ceil(min(x_to, MAX_GROUND) * 2) / 2 + 0.5) if math.isfinite(x_to) else MAX_GROUND
         if self._ground_to == x_to:
             return
         self._ground_to = x_to
         n = self.nodes
         n.segments("ground", [[[-1.0, 0.0], [x_to, 0.0]]], GROUND_COLOR, 2.5)
-        ticks = np.arange(0.5, x_to - 0.25, 0.5)
-        n.segments("ground_ticks", [[[x, 0.0], [x, -0.05 if x % 1 == 0 else -0.03]] for x in ticks], GROUND_COLOR, 1.5)
+        step, every = ground_ticks(x_to)
+        ticks = step * np.arange(1, int((x_to - 0.5 * step) / step) + 1)
+        labelled = np.arange(1, ticks.size + 1) % every == 0
+        n.segments("ground_ticks", [[[x, 0.0], [x, -0.05 if big else -0.03]] for x, big in zip(ticks, labelled)],
+                   GROUND_COLOR, 1.5)
         n.clear("ground_label")
-        for x in ticks[ticks % 1 == 0]:
-            n.label(f"ground_label{int(x)}", f"{int(x)} m", (x, -0.07), anchor="top-center", scale=0.9)
+        for k, x in enumerate(ticks[labelled]):
+            n.label(f"ground_label{k}", f"{x:g} m", (x, -0.07), anchor="top-center", scale=0.9)
 
     def show(self, view: ThrowView) -> None:
         """Draw a throw: theta axis, swing path, flights, landing markers and labels, release arrows."""

@@ -19,7 +19,7 @@ good text comes back.
 ...     except ValueError:
 ...         raise UserError("not a number") from None
 >>> field = CommittedField(handle, parse, got.append, lambda message: got.append(message), delay=60)
->>> handle.value = "1e9"; handle.cb(Event()); field.flush(); got
+>>> handle.value = "1e9"; handle.cb(Event()); field.flush(); got    # exact: float("1e9")
 [1000000000.0]
 >>> handle.value = "1e"; handle.cb(Event()); field.flush(); got[-1], handle.value
 ('not a number', '1e9')
