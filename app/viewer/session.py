@@ -130,6 +130,7 @@ class Session:
         self.url: Dict[str, str] = {}           # the page's state as written to its address
         self._url_pending: Dict[str, str] = {}  # address values still to apply (after the panels)
         self._url_serial = 0
+        self._reselect_tab = False              # the tab group was rebuilt: select url["tab"] again
         self._started = threading.Event()       # the first robot was asked for
         self._lock = threading.RLock()
         self._build_lock = threading.RLock()     # one thread builds or clears the panels at a time
@@ -401,7 +402,9 @@ class Session:
         threading.Thread(target=wait, daemon=True, name=f"address-step-{self.client.client_id}").start()
 
     def _write_url(self) -> None:
-        """Write ``self.url`` into the address bar (and select the tab it names)."""
+        """Write ``self.url`` into the address bar; after the tab group was rebuilt or the address
+        named a tab, also select the tab it names. (Never otherwise: the student's own click on a
+        tab reaches ``url["tab"]`` a moment later, and selecting the older value would undo it.)"""
         with self._lock:
             if self.closed:
                 return
@@ -409,7 +412,8 @@ class Session:
             state = dict(self.url)
             tab = state.get("tab")
             title = next((s.title for s in self._panel_specs if s.name == tab), None)
-            select = title if title and tab in self._tab_handles else None
+            select = title if self._reselect_tab and title and tab in self._tab_handles else None
+            self._reselect_tab = False
             self._url_writer.content = url_state.write_html(state, select, self._url_serial)
 
     def _apply_address(self) -> None:
@@ -422,6 +426,7 @@ class Session:
         if tab is not None:
             if tab in self._tab_handles:
                 self.url["tab"] = tab
+                self._reselect_tab = True
             else:
                 problems.append(f"tab={tab} (not a tab of {self.robot_name})")
         exercise = pending.get("exercise")
@@ -651,6 +656,8 @@ class Session:
             self._tabs = self.gui.add_tab_group(order=ORDER_TABS)
             self._tab_handles = {s.name: self._tabs.add_tab(s.title) for s in specs}
             self._tab_titles = titles
+            with self._lock:
+                self._reselect_tab = True
         for spec in specs:
             if generation != self.generation:          # switched meanwhile
                 return
