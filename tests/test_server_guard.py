@@ -110,6 +110,9 @@ def test_out_of_range_widget_values_are_refused_with_a_message(lab):
                  max_size=None) as ws:
         say_hello(ws)
         session = lab.sessions[wait_for(lambda: set(lab.sessions) - before).pop()]
+        # what the page's script does next: report its address (else the default page comes after URL_WAIT)
+        ws.send(msgspec.msgpack.encode({"type": "GuiUpdateMessage", "uuid": session._report._impl.uuid,
+                                        "updates": {"value": "url ?robot=planar_2r"}}))
         wait_for(lambda: session._sliders and session.robot_name == "planar_2r")
         q1 = session._sliders[0]
         low, high = q1.min, q1.max
@@ -122,13 +125,15 @@ def test_out_of_range_widget_values_are_refused_with_a_message(lab):
         received = []
 
         def page_says(text):
-            def seen():
+            def seen():          # each frame decoded once, as it arrives
                 try:
                     while True:
-                        received.append(ws.recv(timeout=0.05))
+                        frame = ws.recv(timeout=0.05)
+                        if isinstance(frame, bytes):
+                            received.append(page_text(frame))
                 except TimeoutError:
                     pass
-                return any(text.encode() in page_text(frame) for frame in received if isinstance(frame, bytes))
+                return any(text.encode() in payload for payload in received)
             return seen
 
         for bad in ({"value": 1e9}, {"value": high + 1.0}, {"value": float("nan")}, {"value": "1"},
