@@ -28,6 +28,7 @@ import sympy as sp
 from .errors import UserError
 from .expressions import ExpressionError, excerpt, parse_expression, symbol
 from .files import load_yaml, read_user_file
+from .mass_check import singular_directions
 from .robot_model import (  # noqa: F401  (re-exported: the robot module is the entry point)
     DELTA, GROUPS, KNOWN_KINDS, NON_NEGATIVE_KINDS, PARAMETER_KINDS, RESERVED_NAMES, Body, Damper,
     Joint, Limits, Parameter, ParameterError, Point, RobotModel, Spring, Transform, check_parameter,
@@ -559,8 +560,10 @@ def _value_at(ctx: _Ctx, expr: sp.Expr, values: Mapping[sp.Symbol, float], where
 
 def _check_physics(ctx: _Ctx, robot: "RobotModel") -> None:
     """At the default parameter values: masses, rotor inertias, stiffnesses, damper and friction
-    coefficients not negative, inertia tensors positive semi-definite. (The triangle inequality of
-    principal moments is not imposed: exam models often give only the moment about the joint axis.)"""
+    coefficients not negative, inertia tensors positive semi-definite (the triangle inequality of
+    principal moments is not imposed: exam models often give only the moment about the joint axis),
+    and the inertia matrix M(q) positive definite (app.core.mass_check: not singular at q = 0 and at
+    three seeded random configurations)."""
     values = {p.symbol: p.value for p in robot.parameters.values()}
 
     def non_negative(expr, where, what):
@@ -591,6 +594,9 @@ def _check_physics(ctx: _Ctx, robot: "RobotModel") -> None:
     for kind_name, coefficients in (("viscous", robot.viscous), ("coulomb", robot.coulomb)):
         for cname, coeff in coefficients.items():
             non_negative(coeff, f"friction.{kind_name}.{cname}", "friction coefficient")
+    singular = singular_directions(robot, values)
+    if singular:
+        raise ctx.fail("bodies", singular)
 
 
 def parse_robot(data, source: str = "<robot>", content_hash: str = "") -> RobotModel:
