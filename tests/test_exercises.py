@@ -8,9 +8,6 @@ from app.core.compare import parallel, same
 from app.core.exercise import expected_path, list_exercises
 
 EXERCISES = list_exercises()
-# solved once per run: the modules that check the solutions run on the same pytest-xdist worker
-# (make test uses --dist loadgroup), which solves each exercise once (the ``solved`` fixture)
-pytestmark = pytest.mark.xdist_group("exercise-solutions")
 
 
 def test_there_are_exercises():

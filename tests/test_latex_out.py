@@ -40,7 +40,6 @@ def test_model_fragment(name, least):
         assert r"\paragraph{Springs $k(q)$}" in tex and r"\paragraph{Friction}" in tex
 
 
-@pytest.mark.xdist_group("exercise-solutions")       # on the worker that solves every exercise once
 @pytest.mark.parametrize("exercise", ["2004-03-25#1", "2016-07-11#2", "2016-07-11#3", "2019-06-17#5", "2012-06-11#1"])
 def test_solution_fragment(exercise, solved):
     """Between 0.5 and 3 s each (one solve, shared with the other tests of the session):

@@ -8,9 +8,6 @@ from app.core.exercise import list_exercises
 from app.core.mathtext import RULE, latex_to_unicode, problems, to_unicode
 
 EXERCISES = list_exercises()
-# solved once per run: the modules that check the solutions run on the same pytest-xdist worker
-# (make test uses --dist loadgroup), which solves each exercise once (the ``solved`` fixture)
-pytestmark = pytest.mark.xdist_group("exercise-solutions")
 
 
 @pytest.mark.parametrize("exercise", EXERCISES, ids=[e.id for e in EXERCISES])
