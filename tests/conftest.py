@@ -68,6 +68,24 @@ def pytest_runtest_makereport(item, call):
         report.sections.append(("random seeds", "seeds of the random generators this test made: " + ", ".join(unique)))
 
 
+SOLUTION_MODULES = ("test_exercises.py", "test_readable_steps.py", "test_latex_out.py")
+
+
+def pytest_collection_modifyitems(items):
+    """Put the checks of one exercise's solution next to each other (answers, readability, LaTeX):
+    pytest-xdist's worksteal hands each worker a contiguous run of items, so a solution is then
+    computed once per run (the ``solved`` fixture) instead of once per worker."""
+    grouped = [i for i in items if i.path.name in SOLUTION_MODULES and hasattr(i, "callspec")]
+    if not grouped:
+        return
+    first = items.index(grouped[0])
+    chosen = set(map(id, grouped))
+    rest = [i for i in items if id(i) not in chosen]
+    order = {name: k for k, name in enumerate(SOLUTION_MODULES)}
+    grouped.sort(key=lambda i: (i.callspec.id, order[i.path.name]))
+    items[:] = rest[:first] + grouped + rest[first:]
+
+
 @pytest.fixture(scope="session")
 def solved():
     """``solved(exercise)``: the engine's solution of a shipped exercise, solved once per test
