@@ -1001,6 +1001,8 @@ def simulate_full(throw: Throw, controller: str = "feedforward", rtol: float = 1
 
     if controller not in ("feedforward", "computed_torque"):
         raise UserError(f"unknown controller '{controller}' (feedforward or computed_torque)")
+    if progress:
+        progress(0.0, f"preparing the full arm's model ({controller})")
     arm, spec = throw.arm, throw.spec
     num = NumericModel(arm.robot, {**arm.values, "k": spec.k})
     batch = _Batch.of([spec])
@@ -1028,7 +1030,13 @@ def simulate_full(throw: Throw, controller: str = "feedforward", rtol: float = 1
         ddq = np.array([acc[0], acc[1], dd3])
         return (M @ ddq + h)[:2], thdd
 
+    horizon = 2.0 * throw.duration + 0.5
+    calls = [0]
+
     def rhs(t, x):
+        calls[0] += 1
+        if progress and calls[0] % 50 == 0:       # about 10 ms apart; the progress may stop the run (by raising)
+            progress(0.05 + 0.9 * min(1.0, t / throw.duration), f"simulating the full arm ({controller}), t = {t:.3f} s")
         tau, thdd = torques(x)
         ddq = num.forward_dynamics(x[:3], x[3:6], [tau[0], tau[1], 0.0])
         return np.concatenate([x[3:6], ddq, [x[7], thdd]])
@@ -1042,7 +1050,7 @@ def simulate_full(throw: Throw, controller: str = "feedforward", rtol: float = 1
     x0 = np.concatenate([st0.q[:, 0, 0], st0.dq[:, 0, 0] * spec.theta_dot_b, [spec.theta_b, spec.theta_dot_b]])
     if progress:
         progress(0.05, f"simulating the full arm ({controller})")
-    sol = solve_ivp(rhs, (0.0, 2.0 * throw.duration + 0.5), x0, method="DOP853", rtol=rtol, atol=1e-12,
+    sol = solve_ivp(rhs, (0.0, horizon), x0, method="DOP853", rtol=rtol, atol=1e-12,
                     events=at_release, dense_output=True)
     if not sol.t_events[0].size:
         raise VHCError(f"in the full simulation ({controller}) the ball never reaches theta_e")
@@ -1051,9 +1059,15 @@ def simulate_full(throw: Throw, controller: str = "feedforward", rtol: float = 1
     X = sol.sol(t)
     X[:, -1] = sol.y_events[0][0]
     q, dq = X[:3], X[3:6]
+    if progress:
+        progress(0.95, f"sampling the full arm's motion ({controller})")
     refs = [reference(X[6, j], X[7, j]) for j in range(samples)]
+    if progress:
+        progress(0.97, f"sampling the full arm's motion ({controller})")
     q_vhc = np.array([r[0] for r in refs]).T
     tau = np.array([torques(X[:, j])[0] for j in range(samples)]).T
+    if progress:
+        progress(0.99, f"sampling the full arm's motion ({controller})")
     ball = arm.ball_position(q)
     ball_vhc = arm.ball_position(q_vhc)
     theta_sim = arm.theta_of_q(q, spec.psi)
@@ -1088,12 +1102,13 @@ def _landing(arm: ThrowingArm, pos, vel):
 
 
 def speed_limit_bound(arm: ThrowingArm, convention: str = "physical", starts: int = 10,
-                      seed: int = 0) -> SpeedBound:
+                      seed: int = 0, progress: Progress = None) -> SpeedBound:
     """Maximize the landing distance from the base over every configuration in the joint ranges
     (q1 >= pi/6 as in eq. 4.5) and every joint velocity within the speed limits of Table A.2.
 
     No throw can land farther (in the same convention): its release state is one of these. In the
     thesis convention the speed is theta_dot = (J q') . (cos psi, sin psi), launched along psi.
+    ``progress(fraction, message)`` is called before each local polish (and may stop the work by raising).
     """
     from scipy.optimize import minimize
 
@@ -1130,7 +1145,9 @@ def speed_limit_bound(arm: ThrowingArm, convention: str = "physical", starts: in
         vel = np.sum(vel * e, axis=0) * e
     order = np.argsort(-_landing(arm, pos, vel))
     best = None
-    for j in order[:starts]:
+    for k, j in enumerate(order[:starts]):
+        if progress:
+            progress(k / starts, f"speed-limit bound: polish {k + 1}/{starts}")
         r = minimize(neg, Z[j], bounds=bounds, method="L-BFGS-B")
         if best is None or r.fun < best.fun:
             best = r
@@ -1235,6 +1252,8 @@ class ThrowOptimizer:
     The wrist spring k ranges over [0, 2000] N m/rad, the stiffness range the thesis gives for the
     robot's joint impedance (section 2.2).
     """
+    _progress: Progress = None      # during ``run``: reports by the clock from ``evaluate``
+    _reported = 0.0
 
     def __init__(self, arm: ThrowingArm, degree: int = 6, objective: str = "thesis", pieces: int = 6,
                  nodes: int = 12, margin: float = 0.999, reach: float = 0.995, min_alpha: float = 0.02,
@@ -1286,6 +1305,9 @@ class ThrowOptimizer:
         n = self.degree + 1
         B = X.shape[0]
         self.evaluations += B
+        if self._progress is not None and time.monotonic() - self._reported > 0.2:
+            self._reported = time.monotonic()       # by the clock: the search itself never depends on it
+            self._progress(self.evaluations / self._max_evaluations, f"{self.evaluations} evaluations")
         thb = X[:, 2 * n:2 * n + 1]
         the = np.maximum(X[:, 2 * n + 1:2 * n + 2], thb + 1e-3)
         batch = _Batch(X[:, :n], X[:, n:2 * n], thb, the, X[:, 2 * n + 2:2 * n + 3], X[:, 2 * n + 3:2 * n + 4],
@@ -1380,6 +1402,9 @@ class ThrowOptimizer:
         tries = 0
         while len(out) < count and tries < 20 * count:
             tries += 1
+            if self._progress is not None and time.monotonic() - self._reported > 0.2:
+                self._reported = time.monotonic()
+                self._progress(0.0, f"global stage: {len(out)} of {count} swings drawn")
             q_end = release_pose + rng.normal(0.0, [0.15, 0.15, 0.2])
             q_start = np.array([rng.uniform(q_end[0] + 0.2, lim["upper"][0] - 0.5), rng.uniform(-0.3, 1.2),
                                 rng.uniform(-0.5, 1.2)])
@@ -1427,7 +1452,10 @@ class ThrowOptimizer:
 
         report(0.0, "speed-limit bound")
         if bound is None or bound.convention != self.objective:
-            bound = speed_limit_bound(self.arm, self.objective, seed=seed)
+            bound = speed_limit_bound(self.arm, self.objective, seed=seed,
+                                      progress=lambda f, m: report(0.02 * f, m))
+        self._reported = time.monotonic()
+        self._progress = report if progress else None
         pool = self.candidates(rng, candidates, bound.q)
         pool = pool[:max(1, min(len(pool), evaluations))]        # the global stage fits in the budget too
         scores = np.full(len(pool), -np.inf)
@@ -1436,7 +1464,7 @@ class ThrowOptimizer:
                 break
             dist, C = self.evaluate(pool[i:i + 250])
             scores[i:i + 250] = dist + 20.0 * np.sum(np.minimum(C, 0.0), axis=1)
-        report(0.05, f"global stage: {int(np.isfinite(scores).sum())} candidates scored")
+        report(self.evaluations / evaluations, f"global stage: {int(np.isfinite(scores).sum())} candidates scored")
         chosen: List[np.ndarray] = []
         span = self.upper - self.lower
         for j in np.argsort(-scores):
@@ -1472,6 +1500,7 @@ class ThrowOptimizer:
                 self._best = (-np.inf, best)
         rel = throw.release
         d = rel.distance_from_base_thesis if self.objective == "thesis" else rel.distance_from_base
+        self._progress = None
         if progress:
             progress(1.0, f"best {d:.4f} m from the base")
         return OptimizationResult(spec, throw, feas, self.objective, float(d), bound, self.evaluations, runs,

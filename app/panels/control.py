@@ -415,7 +415,11 @@ class ControlPanel:
             if self._alive() and run == self._runs:    # not after a controller switch or a newer run
                 self._show_result(res, kwargs)
 
-        future = self.session.run_in_background(work, title, on_done=done)
+        def cancelled():
+            if self._alive() and run == self._runs:
+                self.status.content = mathml.label_html("cancelled")
+
+        future = self.session.run_in_background(work, title, on_done=done, on_cancel=cancelled)
         if wait:
             future.result()
         return future

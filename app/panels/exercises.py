@@ -28,6 +28,7 @@ from app.panels.exercise_scene import HintDrawer
 from app.panels.exercise_variant import SOLUTIONS, Field, fields, format_value, parse_field
 from app.panels.exercise_view import answers_html, notes_html, question_html, step_html, variant_html
 from app.viewer import mathml
+from app.viewer.session import JobCancelled
 
 TITLE = "Exercises"
 ORDER = 30
@@ -386,6 +387,10 @@ class ExercisesPanel:
         def work(progress):
             try:
                 return SOLUTIONS.solve(ex, values, progress)
+            except JobCancelled:
+                if self._alive() and self.exercise is ex:
+                    self.status.content = _message(f"Solving {ex.id}: cancelled.")
+                raise
             except Exception as exc:
                 self._failed(ex, exc)
                 raise

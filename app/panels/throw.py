@@ -775,8 +775,10 @@ class ThrowStudio:
                                                                               progress=report)
                 sims = []
                 for k, controller in enumerate(("feedforward", "computed_torque")):
-                    report(0.9 + 0.05 * k, f"full dynamics: {controller.replace('_', ' ')}")
-                    sims.append(simulate_full(result.throw, controller))
+                    stage = f"full dynamics: {controller.replace('_', ' ')}"
+                    report(0.9 + 0.05 * k, stage)
+                    sims.append(simulate_full(result.throw, controller,
+                                              progress=lambda f, m, k=k, stage=stage: report(0.9 + 0.05 * (k + f), stage)))
                 return result, sims
             finally:
                 done_event.set()
@@ -798,7 +800,11 @@ class ThrowStudio:
             self.load_config(ThrowConfig(result.spec, {}, title, notes, {}, "optimizer"))
             self._show_verification(sims, result.spec)
 
-        future = self.session.run_in_background(work, "Optimizing the throw", on_done=done)
+        def cancelled():
+            if self._alive():
+                self.opt_status.content = self._status("cancelled")
+
+        future = self.session.run_in_background(work, "Optimizing the throw", on_done=done, on_cancel=cancelled)
         if wait:
             future.result()
         return future
@@ -815,15 +821,22 @@ class ThrowStudio:
             try:
                 sims = []
                 for k, controller in enumerate(("feedforward", "computed_torque")):
-                    progress(0.5 * k, f"{controller.replace('_', ' ')}")
-                    sims.append(simulate_full(view.throw, controller))
+                    stage = controller.replace("_", " ")
+                    progress(0.5 * k, stage)
+                    sims.append(simulate_full(view.throw, controller,
+                                              progress=lambda f, m, k=k, stage=stage: progress(0.5 * (k + f), stage)))
                 return sims
             finally:
                 if self._alive():
                     self.verify_button.disabled = False
 
+        def cancelled():
+            if self._alive():
+                self.verification.content = self._status("cancelled")
+
         future = self.session.run_in_background(work, "Full-dynamics simulation",
-                                                on_done=lambda sims: self._show_verification(sims, view.spec))
+                                                on_done=lambda sims: self._show_verification(sims, view.spec),
+                                                on_cancel=cancelled)
         if wait:
             future.result()
         return future

@@ -220,7 +220,11 @@ class ClosedLoopTab:
             self.show(study)
             self.status.content = studio._status(f"{study.plants} plants, plant '{self.plant.value}': done", done=True)
 
-        future = studio.session.run_in_background(work, "Closed-loop throws", on_done=done)
+        def cancelled():
+            if studio._alive():
+                self.status.content = studio._status("cancelled")
+
+        future = studio.session.run_in_background(work, "Closed-loop throws", on_done=done, on_cancel=cancelled)
         if wait:
             future.result()
         return future

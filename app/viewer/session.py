@@ -205,15 +205,21 @@ class Session:
                                      auto_close_seconds=15.0 if error else 6.0, with_close_button=True)
 
     def run_in_background(self, fn: Callable, progress_title: str,
-                          on_done: Optional[Callable] = None) -> Future:
+                          on_done: Optional[Callable] = None, on_cancel: Optional[Callable] = None) -> Future:
         """Run ``fn(progress)`` off the event thread; ``progress(fraction, message)`` drives a
-        progress bar (shown when the job takes more than 0.3 s). ``on_done(result)`` runs after a
-        success. A ``UserError`` becomes a clear notification, any other exception a notification
-        with the error; the page keeps working either way. At most ``lab.max_jobs`` jobs of all
-        tabs run at once; the others wait, saying so in their progress bar. When the browser tab
-        goes away (closed, reloaded), the next ``progress`` call raises ``JobCancelled`` and the
-        job ends quietly."""
-        return self._executor.submit(self._job, self.lab.limited(fn), progress_title, on_done)
+        progress bar with a Cancel button (shown when the job takes more than 0.3 s).
+        ``on_done(result)`` runs after a success. A ``UserError`` becomes a clear notification, any
+        other exception a notification with the error; the page keeps working either way. At most
+        ``lab.max_jobs`` jobs of all tabs run at once; the others wait, saying so in their progress
+        bar. When the student clicks Cancel, or the browser tab goes away (closed, reloaded), the
+        next ``progress`` call raises ``JobCancelled`` and the job ends quietly (after a Cancel:
+        ``on_cancel()``, then a notification). The returned future's ``cancel_job()`` does what the
+        button does."""
+        cancelled = threading.Event()
+        future = self._executor.submit(self._job, self.lab.limited(fn), progress_title, on_done, cancelled,
+                                       on_cancel)
+        future.cancel_job = cancelled.set
+        return future
 
     def math_html(self, latex: str, display: bool = True) -> str:
         """HTML (for ``gui.add_html``) of a LaTeX formula, typeset as MathML with the math font."""
@@ -498,8 +504,14 @@ class Session:
         def work(progress):
             return derive(robot, progress=progress)
 
+        def cancelled():
+            with self._lock:
+                if generation == self.generation:
+                    self._badge.content = self._badge_html(
+                        "pending", "model not derived (cancelled): reload the page or pick a robot to derive it")
+
         self.run_in_background(work, f"Deriving the model of {robot.title}",
-                               on_done=lambda dyn: self._model_ready(generation, dyn))
+                               on_done=lambda dyn: self._model_ready(generation, dyn), on_cancel=cancelled)
 
     def _model_ready(self, generation: int, dynamics) -> None:
         with self._lock:
@@ -742,8 +754,9 @@ class Session:
         last = detail.strip().splitlines()[-1] if detail.strip() else repr(exc)
         self.notify(f"Internal error{where}", last, error=True)
 
-    def _job(self, fn, title: str, on_done):
-        state = {"bar": None, "label": None, "fraction": 0.0, "message": "", "done": False}
+    def _job(self, fn, title: str, on_done, cancelled: Optional[threading.Event] = None, on_cancel=None):
+        cancelled = cancelled if cancelled is not None else threading.Event()
+        state = {"bar": None, "label": None, "button": None, "fraction": 0.0, "message": "", "done": False}
         lock = threading.Lock()
         def show():
             with lock:
@@ -753,13 +766,17 @@ class Session:
                                                    order=ORDER_PROGRESS)
                 state["bar"] = self.gui.add_progress_bar(max(0.0, min(100.0, 100 * state["fraction"])),
                                                          animated=True, order=ORDER_PROGRESS + 0.1)
+                button = self.gui.add_button("Cancel", color="gray", order=ORDER_PROGRESS + 0.2,
+                                             hint=f"stop: {title}")
+                button.on_click(lambda _: cancelled.set())
+                state["button"] = button
 
         timer = threading.Timer(0.3, show)
         timer.daemon = True
         timer.start()
 
         def progress(fraction: float, message: str = "") -> None:
-            if self.closed:
+            if self.closed or cancelled.is_set():
                 raise JobCancelled(title)
             with lock:
                 state["fraction"], state["message"] = float(fraction), message
@@ -774,7 +791,12 @@ class Session:
                     on_done(result)
             return result
         except JobCancelled:
-            pass                     # the tab went away: nobody is waiting for the result
+            if cancelled.is_set() and not self.closed:      # the student's Cancel (else the tab went away)
+                try:
+                    if on_cancel is not None:
+                        on_cancel()
+                finally:
+                    self.notify(f"{title}: cancelled")
         except UserError as exc:
             self.notify(title, str(exc), error=True)
         except Exception:
@@ -783,7 +805,7 @@ class Session:
             timer.cancel()
             with lock:
                 state["done"] = True
-                for key in ("bar", "label"):
+                for key in ("bar", "label", "button"):
                     if state[key] is not None:
                         state[key].remove()
         return None
