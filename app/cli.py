@@ -26,8 +26,7 @@ import warnings
 from pathlib import Path
 from typing import List, Optional
 
-from app.core.errors import UserError
-from app.core.expressions import excerpt
+from app.core.errors import UserError, excerpt
 
 MAX_MESSAGE = 300
 MAX_SEED = 2 ** 32 - 1

@@ -17,8 +17,6 @@ from __future__ import annotations
 import json
 import sys
 
-import sympy as sp
-
 NAME = "derive"
 HELP = "derive the dynamic model of a robot (shipped name or robot file)"
 
@@ -34,11 +32,13 @@ def add_arguments(p):
     p.add_argument("--no-cache", action="store_true", help="derive from scratch")
 
 
-def _rows(m: sp.Matrix):
+def _rows(m):
+    """A sympy matrix as rows of expression texts."""
     return [[str(m[i, j]) for j in range(m.cols)] for i in range(m.rows)]
 
 
-def _vec(m: sp.Matrix):
+def _vec(m):
+    """A sympy column as a list of expression texts."""
     return [str(e) for e in m]
 
 
@@ -95,6 +95,7 @@ def run(args) -> int:
         json.dump(model_json(robot, dyn), sys.stdout)
         sys.stdout.write("\n")
         return 0
+    import sympy as sp
     out = sys.stdout
     print(f"{robot.title}  [{robot.name}]", file=out)
     print(f"coordinates q = {list(robot.coordinates)}", file=out)

@@ -10,9 +10,9 @@ def add_arguments(p):
 def run(args) -> int:
     import json
 
-    from app.core.exercise import list_exercises
+    from app.core.catalog import exercise_entries
 
-    rows = [{"id": e.id, "title": e.title, "robot": e.robot, "topics": e.topics} for e in list_exercises()]
+    rows = exercise_entries()
     if args.json:
         print(json.dumps(rows))
         return 0

@@ -10,13 +10,9 @@ def add_arguments(p):
 def run(args) -> int:
     import json
 
-    from app.core.robot import list_robot_names, load_robot
+    from app.core.catalog import robot_entries
 
-    rows = []
-    for name in list_robot_names():
-        r = load_robot(name)
-        rows.append({"name": name, "group": r.group, "title": r.title, "description": r.description,
-                     "dof": r.n})
+    rows = robot_entries()
     if args.json:
         print(json.dumps(rows))
         return 0

@@ -13,8 +13,6 @@ from __future__ import annotations
 import json
 import sys
 
-import numpy as np
-
 NAME = "simulate"
 HELP = "run a controller in closed loop on a robot and write the signals as CSV"
 
@@ -77,6 +75,7 @@ def list_controllers(out=None) -> None:
 
 def summary(res) -> dict:
     """Numbers that characterize a run (for the printed summary and --json)."""
+    import numpy as np
     late = res.t >= res.t[-1] - 0.1 * (res.t[-1] - res.t[0]) if len(res.t) > 1 else np.ones(len(res.t), bool)
     out = dict(res.metadata())
     out.update({

@@ -15,10 +15,8 @@ writes the solution as a LaTeX fragment (amsmath; app/core/tex.py; ``-``: standa
 from __future__ import annotations
 
 import json
+import math
 import sys
-
-import numpy as np
-import sympy as sp
 
 NAME = "solve"
 HELP = "solve an exercise step by step (shipped id or exercise file)"
@@ -36,6 +34,8 @@ def add_arguments(p):
 
 def jsonable(value):
     """Answers -> JSON: sympy objects become strings, matrices nested lists, numbers stay numbers."""
+    import numpy as np
+    import sympy as sp
     if isinstance(value, sp.MatrixBase):
         if value.cols == 1:
             return [jsonable(e) for e in value]
@@ -126,9 +126,13 @@ def answer_text(value, coordinates=()) -> str:
     """An answer for reading: numbers to 6 significant digits (no 6e-17 noise), symbolic answers
     and matrices in Unicode math.
 
+    >>> import numpy as np
     >>> answer_text(6.123e-17), answer_text(np.array([0.5, 1/3])), answer_text(True)
     ('0', '⎛ 0.5      ⎞\\n⎝ 0.333333 ⎠', 'yes')
     """
+    import numpy as np
+    import sympy as sp
+
     from app.core.mathtext import latex_to_unicode
     from app.core.steps import to_latex
     if isinstance(value, (bool, np.bool_)):
@@ -153,7 +157,7 @@ def answer_text(value, coordinates=()) -> str:
 
 
 def _number(x: float) -> str:
-    if not np.isfinite(x):
+    if not math.isfinite(x):
         return str(x)
     if abs(x) < 1e-12:
         return "0"

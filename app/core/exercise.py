@@ -19,15 +19,13 @@ from pathlib import Path
 from typing import Any, Callable, Dict, List, Mapping, Optional
 
 
+from .catalog import EXERCISES_DIR, exercise_files
 from .dynamics import Dynamics, derive
 from .errors import UserError
 from .expressions import ExpressionError, parse_expression
 from .files import load_yaml, read_user_file
 from .robot import ParameterError, RobotModel, load_robot, parse_robot, robot_path
 from .steps import Step
-
-EXERCISES_DIR = Path(__file__).resolve().parent.parent / "exercises"
-
 
 class ExerciseError(UserError):
     """An exercise file is malformed or asks for something the engine cannot do."""
@@ -262,12 +260,7 @@ def _note_steps(exercise: "Exercise", steps: List[Step], answer_steps: Mapping[s
 
 
 def list_exercises() -> List[Exercise]:
-    out = []
-    for p in sorted(EXERCISES_DIR.glob("*.yaml")):
-        if p.name.endswith(".expected.yaml"):
-            continue
-        out.append(load_exercise(p))
-    return out
+    return [load_exercise(p) for p in exercise_files()]
 
 
 def expected_path(exercise: Exercise) -> Path:

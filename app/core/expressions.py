@@ -17,13 +17,12 @@ from __future__ import annotations
 
 import ast
 import math
-import reprlib
 from dataclasses import dataclass
 from typing import Iterable, Mapping, Optional
 
 import sympy as sp
 
-from .errors import UserError
+from .errors import UserError, excerpt
 
 
 class ExpressionError(UserError):
@@ -64,18 +63,6 @@ def symbol(name: str) -> sp.Symbol:
     True
     """
     return sp.Symbol(name, real=True)
-
-
-def excerpt(text, limit: int = 60) -> str:
-    """The input quoted for a message, cut to ``limit`` characters (any value: nested data is
-    abbreviated, never walked in full).
-
-    >>> excerpt("x" * 100, 10)
-    "'xxxxxxx...'"
-    """
-    if not isinstance(text, str):
-        return reprlib.repr(text)[:limit]
-    return repr(text if len(text) <= limit else text[:limit - 3] + "...")
 
 
 def _fail(field: str, message: str) -> ExpressionError:

@@ -21,7 +21,6 @@ from typing import Callable, List, Optional
 
 import numpy as np
 import sympy as sp
-from scipy.optimize import fsolve
 
 from .errors import UserError
 
@@ -69,6 +68,7 @@ def default_beta(kp_min: float, alpha: float) -> float:
 def iterate(g: Callable, kp: np.ndarray, q_d: np.ndarray, q_0: np.ndarray, alpha: float, epsilon: float,
             beta: Optional[float] = None, iterations: int = 8) -> LearningRun:
     """Run the scheme: rest configurations, feedforward torques, and the a-priori error bounds."""
+    from scipy.optimize import fsolve
     kp = np.asarray(kp, float)
     beta = default_beta(float(np.min(kp)), alpha) if beta is None else float(beta)
     contraction = beta / (1 - beta)

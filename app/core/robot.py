@@ -25,6 +25,7 @@ from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 import sympy as sp
 
+from .catalog import ROBOTS_DIR, list_robot_names
 from .errors import UserError
 from .expressions import ExpressionError, excerpt, parse_expression, symbol
 from .files import load_yaml, read_user_file
@@ -34,9 +35,6 @@ from .robot_model import (  # noqa: F401  (re-exported: the robot module is the 
     Joint, Limits, Parameter, ParameterError, Point, RobotModel, Spring, Transform, check_parameter,
     elementary_rotation)
 from .urdf import is_urdf, robot_data_from_urdf
-
-ROBOTS_DIR = Path(__file__).resolve().parent.parent / "robots"
-
 
 class RobotFileError(UserError):
     """A robot file is malformed; the message names the file, the field and the problem."""
@@ -677,7 +675,3 @@ def load_robot_text(text: str, source: str = "<robot>") -> RobotModel:
     data = load_yaml(text, source, RobotFileError)
     digest = hashlib.sha256(text.encode("utf-8")).hexdigest()
     return parse_robot(data, source, digest)
-
-
-def list_robot_names() -> List[str]:
-    return sorted(p.stem for p in ROBOTS_DIR.glob("*.yaml"))

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import numpy as np
 import sympy as sp
-from scipy.optimize import fsolve
 
 from .. import jacobians as jac
 from ..errors import UserError
@@ -115,6 +114,7 @@ def _equilibrium(ctx, m, d, spec, links, motors, K, x, J, g, u_law, tau, Km, x_d
         link = np.asarray(f_g(q), float).ravel() - tau_J - np.asarray(f_J(q), float).T @ F
         motor = tau_J - np.asarray(f_tau(z), float).ravel()
         return np.concatenate([link, motor])
+    from scipy.optimize import fsolve
     z, info, ok, msg = fsolve(statics, z0, xtol=1e-13, full_output=True)
     if ok != 1 or np.max(np.abs(statics(z))) > 1e-8:
         raise ExerciseError(f"elastic_impedance: no equilibrium found from the guess ({msg})")

@@ -37,7 +37,6 @@ A *law* spec is {type: cubic | quintic | bang_bang | trapezoidal, T, V, A, Ts, r
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg
 import sympy as sp
 
 from .. import jacobians as jac
@@ -292,11 +291,12 @@ def cartesian_tracking_task(ctx, spec):
     ctx.answer("error0_task", eR)
     ctx.answer("u0", u0)
     if "time" in spec:
+        from scipy.linalg import expm
         tt = d.number(spec["time"], "time")
         eRt = np.zeros(2)
         for i in range(2):
             Acl = np.array([[0.0, 1.0], [-kp[i], -kd[i]]])
-            eRt[i] = (scipy.linalg.expm(Acl * tt) @ np.array([eR[i], deR[i]]))[0]
+            eRt[i] = (expm(Acl * tt) @ np.array([eR[i], deR[i]]))[0]
         st = float(law(tt)[0])
         pdt = P0 + st * t_dir
         et = R @ eRt

@@ -1,0 +1,57 @@
+"""The shipped robots and exercises as listed by ``python -m app robots`` and ``exercises``.
+
+A listing reads only the header fields of the shipped files (name, group, title, description,
+coordinates; id, title, robot, topics), so it needs neither sympy nor the task modules and answers
+at once. The files themselves are validated when loaded (app.core.robot, app.core.exercise) and by
+the tests, which also check that these entries agree with the loaded files.
+
+>>> next(e for e in robot_entries() if e["name"] == "rp_2004_03_25")["dof"]
+2
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import List
+
+import yaml
+
+APP_DIR = Path(__file__).resolve().parent.parent
+ROBOTS_DIR = APP_DIR / "robots"
+EXERCISES_DIR = APP_DIR / "exercises"
+
+#: libyaml's loader when PyYAML was built with it (ten times faster); the shipped files are trusted,
+#: user files go through app.core.files.load_yaml
+_SHIPPED_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+
+
+def _load_shipped(path: Path):
+    return yaml.load(path.read_text(encoding="utf-8"), Loader=_SHIPPED_LOADER)
+
+
+def list_robot_names() -> List[str]:
+    return sorted(p.stem for p in ROBOTS_DIR.glob("*.yaml"))
+
+
+def exercise_files() -> List[Path]:
+    """The shipped exercise files (without the expected answers beside them), in id order."""
+    return [p for p in sorted(EXERCISES_DIR.glob("*.yaml")) if not p.name.endswith(".expected.yaml")]
+
+
+def robot_entries() -> List[dict]:
+    """One entry per shipped robot: name, group, title, description, dof (as the loaded robot has them)."""
+    rows = []
+    for name in list_robot_names():
+        data = _load_shipped(ROBOTS_DIR / f"{name}.yaml")
+        rows.append({"name": name, "group": data.get("group", "other"), "title": str(data.get("title", data["name"])),
+                     "description": str(data.get("description", "")), "dof": len(data["coordinates"])})
+    return rows
+
+
+def exercise_entries() -> List[dict]:
+    """One entry per shipped exercise: id, title, robot, topics (as the loaded exercise has them)."""
+    rows = []
+    for path in exercise_files():
+        data = _load_shipped(path)
+        rows.append({"id": str(data["id"]), "title": str(data.get("title", data["id"])), "robot": str(data["robot"]),
+                     "topics": list(data.get("topics") or [])})
+    return rows

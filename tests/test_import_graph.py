@@ -1,0 +1,59 @@
+"""The light commands import only what they need (issue 16: a command answers at once).
+
+Asserted on the import graph, not on a time: each check runs the commands in a fresh interpreter
+and reads ``sys.modules`` afterwards. The listings read the files' headers only (app/core/catalog.py),
+so ``robots`` and ``exercises`` import neither sympy nor any heavy library; a cached derivation and
+a solution import the engine but nothing of the page (viser, the panels, playwright) and neither
+pinocchio nor scipy. Three subprocesses in all.
+"""
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+#: runs the commands given as one JSON list of argument lists, then prints the imported modules
+CHILD = """
+import contextlib, io, json, sys
+from app.cli import main
+for argv in json.loads(sys.argv[1]):
+    with contextlib.redirect_stdout(io.StringIO()):
+        code = main(argv)
+    if code != 0:
+        sys.exit(f"{argv}: exit code {code}")
+print(json.dumps(sorted(sys.modules)))
+"""
+
+PAGE = {"viser", "playwright", "plotly", "app.viewer", "app.panels"}
+
+
+def _imported(commands, cache: Path) -> set:
+    env = {**os.environ, "R2LAB_CACHE": str(cache)}
+    done = subprocess.run([sys.executable, "-c", CHILD, json.dumps(commands)], cwd=ROOT, env=env,
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    return set(json.loads(done.stdout))
+
+
+def _heavy(modules: set, names: set) -> set:
+    """The modules among ``names`` that were imported (a package counts when any of its modules was)."""
+    return {name for name in names if any(m == name or m.startswith(name + ".") for m in modules)}
+
+
+def test_listings_import_no_engine_and_no_heavy_library(tmp_path):
+    modules = _imported([["robots"], ["robots", "--json"], ["exercises"], ["exercises", "--json"]], tmp_path)
+    assert _heavy(modules, PAGE | {"pinocchio", "scipy", "sympy", "numpy", "app.core.tasks"}) == set()
+    assert "app.core.catalog" in modules
+
+
+def test_cached_derivation_and_solution_import_nothing_of_the_page(tmp_path):
+    warm = subprocess.run([sys.executable, "-m", "app", "solve", "2004-03-25#1", "--json"], cwd=ROOT,
+                          env={**os.environ, "R2LAB_CACHE": str(tmp_path)}, capture_output=True, timeout=300)
+    assert warm.returncode == 0, warm.stderr[-2000:]
+    assert list((tmp_path / "derivations").glob("*")), "the first run left no derivation in the cache"
+    modules = _imported([["derive", "rp_2004_03_25"], ["derive", "rp_2004_03_25", "--json"],
+                         ["solve", "2004-03-25#1", "--json"]], tmp_path)
+    assert _heavy(modules, PAGE | {"pinocchio", "scipy"}) == set()
+    assert {"sympy", "app.core.dynamics", "app.core.tasks"} <= modules
