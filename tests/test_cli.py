@@ -125,3 +125,15 @@ def test_solve_refuses_bad_variants():
     out = json.loads(run("solve", "2020-09-11#3", "--set", "m2=1", "--json").stdout)
     # M11 at q* = (0, 3): I1 + I2 + m1 d1^2 + m2 (l1^2 + q2^2) = 0.25 + 0.875 + 0.75 + 10
     assert out["answers"]["M_at"][0][0] == pytest.approx(11.875)
+
+
+def test_optimize_json_gives_the_result_and_the_evaluations_spent():
+    """``throw --optimize --json`` (a stable contract): the best throw as a throw object, and the
+    evaluation count against its budget (a small budget: the search itself is tested in test_throwing)."""
+    out = json.loads(run("throw", "--optimize", "--evaluations", "300", "--json").stdout)
+    assert out["evaluations"] == 300 and out["evaluation_budget"] == 300 and out["time_capped"] is False
+    assert 1 <= out["evaluations_to_best"] <= 300
+    result = out["result"]
+    assert result["feasible"] is True and result["violations"] == []
+    assert result["distance_from_base_thesis"] == pytest.approx(out["distance_from_base"], rel=1e-12)
+    assert result["config"] == out["config"]
