@@ -4,13 +4,18 @@ Asserted on the import graph, not on a time: each check runs the commands in a f
 and reads ``sys.modules`` afterwards. The listings read the files' headers only (app/core/catalog.py),
 so ``robots`` and ``exercises`` import neither sympy nor any heavy library; a cached derivation and
 a solution import the engine but nothing of the page (viser, the panels, playwright) and neither
-pinocchio nor scipy. Three subprocesses in all.
+pinocchio nor scipy, and of the task modules only those the exercise's tasks need. Three
+subprocesses in all.
 """
+import importlib
 import json
 import os
+import pkgutil
 import subprocess
 import sys
 from pathlib import Path
+
+import app.core.tasks as tasks
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -57,3 +62,15 @@ def test_cached_derivation_and_solution_import_nothing_of_the_page(tmp_path):
                          ["solve", "2004-03-25#1", "--json"]], tmp_path)
     assert _heavy(modules, PAGE | {"pinocchio", "scipy"}) == set()
     assert {"sympy", "app.core.dynamics", "app.core.tasks"} <= modules
+    used = {tasks.TASKS[kind].__module__ for kind in ("dynamics", "parametrization", "adaptive_law", "pfl")}
+    assert {m for m in modules if m.startswith("app.core.tasks.")} == used
+
+
+def test_the_task_registry_knows_every_kind_its_modules_register():
+    """The registry reads the kinds from the ``@task("kind")`` lines; importing every task module
+    registers exactly those kinds, each in the module the registry names."""
+    for info in pkgutil.iter_modules(tasks.__path__):
+        importlib.import_module(f"{tasks.__name__}.{info.name}")
+    assert len(tasks.TASKS) > 70
+    for kind in tasks.TASKS:
+        assert tasks.TASKS[kind].__module__ == f"{tasks.__name__}.{tasks.TASKS._module_of[kind]}"
