@@ -59,7 +59,7 @@ def test_cached_derivation_and_solution_import_nothing_of_the_page(tmp_path):
     assert warm.returncode == 0, warm.stderr[-2000:]
     assert list((tmp_path / "derivations").glob("*")), "the first run left no derivation in the cache"
     modules = _imported([["derive", "rp_2004_03_25"], ["derive", "rp_2004_03_25", "--json"],
-                         ["solve", "2004-03-25#1", "--json"]], tmp_path)
+                         ["solve", "2004-03-25#1", "--json"], ["solve", "2004-03-25#1"]], tmp_path)
     assert _heavy(modules, PAGE | {"pinocchio", "scipy"}) == set()
     assert {"sympy", "app.core.dynamics", "app.core.tasks"} <= modules
     used = {tasks.TASKS[kind].__module__ for kind in ("dynamics", "parametrization", "adaptive_law", "pfl")}

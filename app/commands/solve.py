@@ -99,7 +99,7 @@ def terminal_text(sol) -> str:
     """The solution for a terminal: each step's title, explanation and formulas in Unicode math,
     the notes on the printed solution under the step they concern, then the answers (rounded)."""
     from app.core.mathtext import latex_to_unicode, to_unicode
-    from app.viewer.mathml import split_top_level
+    from app.core.formula_layout import split_top_level
     ex = sol.exercise
     out = [f"{ex.id}: {ex.title}", f"robot: {sol.robot.title}", "", ex.question.strip(), ""]
     for k, st in enumerate(sol.steps):
