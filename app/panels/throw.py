@@ -160,6 +160,7 @@ class ThrowStudio:
         self._thread: Optional[threading.Thread] = None
         self._optimizing = False
         self.shown = 0                                 # throws shown so far (tests, screenshots)
+        self.answered = 0                              # throws solved so far, shown or refused
         self.selected = ("a", 0)
         self.nodes = Nodes(session.client.scene, "/throw")
         arm = self.arm()
@@ -529,9 +530,11 @@ class ThrowStudio:
             view = evaluate(arm, spec)
         except UserError as exc:
             self._show_problem(str(exc), values, spec, flags)
+            self.answered += 1
             return
         if self._alive():
             self._show(view, values, flags)
+        self.answered += 1
 
     def _q3_curve(self, spec: Optional[ThrowSpec]):
         """(s, q3(s)) with NaN where the constraint cannot be reached, or None."""

@@ -420,8 +420,11 @@ class Walk:
             self._wait_ready()
         title = next(t for t in self._tab_titles() if "Throw" in t)
         shots.select_tab(self.page, title)
+        studio = self.session.state["throw"]["studio"]
+        answered = studio.answered
         self.page.get_by_role("button", name=self.rng.choice(["Throw 1", "Throw 2", "Throw 3"]), exact=True).click()
-        self.page.wait_for_timeout(500)
+        # loading a throw sets the model's parameters of its file: the next action starts after that
+        shots.wait_until(lambda: studio.answered > answered, ANSWER_SECONDS, "the throw to be solved")
 
     def reload(self) -> None:
         old = self.session
