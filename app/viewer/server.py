@@ -130,7 +130,7 @@ class LabServer:
 
     def catalog(self) -> List[RobotInfo]:
         """Every shipped robot in the picker's order (files are read again only when they change);
-        broken files are left out of the picker (``python -m app robots`` reports them)."""
+        broken files are left out of the picker (``python -m app check NAME`` says what is wrong)."""
         out = []
         for name in list_robot_names():
             try:
