@@ -1,0 +1,42 @@
+"""Reliability issue, server item 5: a server killed and started again on the same port gets its
+tabs back as they were (robot, panel tab, exercise), because each tab's state is in its address and
+viser's page reconnects by itself."""
+import time
+
+from app.viewer import screenshot as shots
+from app.viewer.server import LabServer
+
+
+def selected_tab(page):
+    return page.evaluate("() => document.querySelector('[role=tab][aria-selected=true]').textContent.trim()")
+
+
+def test_tabs_come_back_as_they_were_after_a_restart(browser):
+    first = LabServer(port=0, verbose=False)
+    port = first.viser.get_port()
+    pages = []
+    try:
+        for query, robot, tab in (("robot=rp_2004_03_25&tab=steps", "rp_2004_03_25", "Steps"),
+                                  ("robot=polar_2r_2016_06_06&tab=control", "polar_2r_2016_06_06", "Control")):
+            before = set(first.sessions)
+            page = browser.page(shots.page_url(first, query))
+            shots.wait_ready(page, robot)
+            shots.new_session(first, before)
+            shots.wait_until(lambda: selected_tab(page) == tab, 10, f"the {tab} tab")
+            pages.append((page, robot, tab))
+    finally:
+        first.stop()
+    time.sleep(0.5)
+    second = LabServer(port=port, verbose=False)
+    try:
+        for page, robot, tab in pages:          # the pages were not reloaded: they reconnect on their own
+            shots.wait_until(lambda: any(s.robot_name == robot and s.ready.is_set() for s in second.sessions.values()),
+                             60, f"{robot} back after the restart")
+            shots.wait_ready(page, robot)
+            shots.wait_until(lambda: selected_tab(page) == tab, 10, f"the {tab} tab back")
+            assert page.evaluate("() => location.search").startswith(f"?robot={robot}")
+        assert len(second.sessions) == len(pages)
+    finally:
+        for page, _, _ in pages:
+            page.context.close()
+        second.stop()
