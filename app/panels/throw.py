@@ -792,8 +792,6 @@ class ThrowStudio:
 
         def done(out):
             result, sims = out
-            if not self._alive():
-                return
             convention = "θ̇ along ψ" if result.objective == "thesis" else "J q̇"
             title = f"Optimized throw, {convention}, seed {seed}"
             notes = (f"{result.distance_from_base:.4f} m from the base ({convention}) after {result.elapsed:.1f} s, "
@@ -803,14 +801,7 @@ class ThrowStudio:
             self.load_config(ThrowConfig(result.spec, {}, title, notes, {}, "optimizer"))
             self._show_verification(sims, result.spec)
 
-        def cancelled():
-            if self._alive():
-                self.opt_status.content = self._status("cancelled")
-
-        future = self.session.run_in_background(work, "Optimizing the throw", on_done=done, on_cancel=cancelled)
-        if wait:
-            future.result()
-        return future
+        return self.background(work, "Optimizing the throw", self.opt_status, done, wait)
 
     def verify(self, wait: bool = False):
         """Simulate the current throw in the full dynamics (both controllers) and show the drifts."""
@@ -833,13 +824,22 @@ class ThrowStudio:
                 if self._alive():
                     self.verify_button.disabled = False
 
-        def cancelled():
-            if self._alive():
-                self.verification.content = self._status("cancelled")
+        return self.background(work, "Full-dynamics simulation", self.verification,
+                               lambda sims: self._show_verification(sims, view.spec), wait)
 
-        future = self.session.run_in_background(work, "Full-dynamics simulation",
-                                                on_done=lambda sims: self._show_verification(sims, view.spec),
-                                                on_cancel=cancelled)
+    def background(self, work, title: str, status, on_done, wait: bool = False):
+        """Run ``work(progress)`` off the event thread under a progress bar titled ``title``, then
+        ``on_done(result)`` while the studio lives; a Cancel says so in ``status`` (an HTML widget,
+        or None). With ``wait`` it returns when the job has ended (tests, pictures)."""
+        def done(result):
+            if self._alive():
+                on_done(result)
+
+        def cancelled():
+            if self._alive() and status is not None:
+                status.content = self._status("cancelled")
+
+        future = self.session.run_in_background(work, title, on_done=done, on_cancel=cancelled)
         if wait:
             future.result()
         return future

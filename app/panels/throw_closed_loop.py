@@ -215,19 +215,10 @@ class ClosedLoopTab:
                     self.progress.visible = False
 
         def done(study):
-            if not studio._alive():
-                return
             self.show(study)
             self.status.content = studio._status(f"{study.plants} plants, plant '{self.plant.value}': done", done=True)
 
-        def cancelled():
-            if studio._alive():
-                self.status.content = studio._status("cancelled")
-
-        future = studio.session.run_in_background(work, "Closed-loop throws", on_done=done, on_cancel=cancelled)
-        if wait:
-            future.result()
-        return future
+        return studio.background(work, "Closed-loop throws", self.status, done, wait)
 
     def throw_and_catch(self, wait: bool = False):
         """Throw the ball on the chosen plant, watch it with the camera and catch it (in the background)."""
@@ -249,14 +240,7 @@ class ClosedLoopTab:
                 if studio._alive():
                     self.catch_button.disabled = False
 
-        def done(result):
-            if studio._alive():
-                self.show_catch(result)
-
-        future = studio.session.run_in_background(work, "Throw and catch", on_done=done)
-        if wait:
-            future.result()
-        return future
+        return studio.background(work, "Throw and catch", None, self.show_catch, wait)
 
     def show_catch(self, r: ThrowAndCatch) -> None:
         """The outcome as text and the catch in the 3D view: the catching arm at its catch pose, the
