@@ -1018,3 +1018,72 @@ def _linear_map(typed, a, known) -> Tuple[sp.Matrix, List[int]]:
             continue
         rows.append([sol[0].get(ti, 0) for ti in t])
     return sp.Matrix(rows), bad
+
+
+# ====================================================================== entries offered on the page
+def model_entries(robot, dyn) -> List[Tuple[str, str]]:
+    """The entries of a derived model a student can check, as ``(entry, description)`` pairs in the
+    order of the Model tab: M (upper triangle), c, C, Christoffel symbols (j <= k), g, springs,
+    the coefficients a and the regressor's columns.
+
+    >>> from app.core.dynamics import derive
+    >>> from app.core.robot import load_robot
+    >>> robot = load_robot("planar_2r")
+    >>> entries = [e for e, _ in model_entries(robot, derive(robot))]
+    >>> entries[:5], "c1_22" in entries, "Ycol1" in entries
+    (['m11', 'm12', 'm22', 'c1', 'c2'], True, True)
+    """
+    n = len(dyn.M.tolist())
+    out: List[Tuple[str, str]] = []
+    out += [(f"m{i + 1}{j + 1}", "inertia matrix M(q)") for i in range(n) for j in range(i, n)]
+    out += [(f"c{i + 1}", "Coriolis and centrifugal terms c(q, q̇)") for i in range(n)]
+    out += [(f"C{i + 1}{j + 1}", "factorization C(q, q̇)") for i in range(n) for j in range(n)]
+    out += [(f"c{i + 1}_{j + 1}{k + 1}", f"Christoffel symbol, matrix C{i + 1}")
+            for i in range(len(dyn.christoffel)) for j in range(n) for k in range(j, n)]
+    out += [(f"g{i + 1}", "gravity g(q)") for i in range(n)]
+    if any(e != 0 for e in dyn.spring):
+        out += [(f"k{i + 1}", "springs k(q)") for i in range(n)]
+    par = dyn.parametrization
+    out += [(f"a{k + 1}", "dynamic coefficient") for k in range(len(par.a))]
+    out += [(f"Ycol{k + 1}", "regressor column (a vector)") for k in range(par.Y.cols)]
+    return out
+
+
+def _checkable(value) -> bool:
+    if isinstance(value, (bool, np.bool_, int, float, np.integer, np.floating, sp.Basic, sp.MatrixBase)):
+        return True
+    if isinstance(value, (list, tuple, np.ndarray)):
+        try:
+            arr = np.asarray(value, dtype=object)
+        except ValueError:
+            return False
+        return arr.ndim in (1, 2) and arr.size > 0 and all(
+            isinstance(v, (int, float, np.integer, np.floating, sp.Basic)) and not isinstance(v, bool)
+            for v in arr.ravel())
+    return False
+
+
+def exercise_entries(solution, upto_step: Optional[int] = None) -> List[Tuple[str, str]]:
+    """The answers of a solved exercise a student can check, as ``(entry, description)`` pairs:
+    each answer shown by a step ``<= upto_step`` (all when None), whole and, for a vector or a
+    small matrix, entry by entry (``name[i]``, ``name[i,j]``, 1-based)."""
+    out: List[Tuple[str, str]] = []
+    names = sorted(solution.answers, key=lambda a: (solution.answer_step(a) is None, solution.answer_step(a) or 0))
+    for name in names:
+        value, k = solution.answers[name], solution.answer_step(name)
+        if upto_step is not None and (k is None or k > upto_step):
+            continue
+        if not _checkable(value):
+            continue
+        where = f"step {k + 1}" if k is not None else "answer"
+        out.append((name, where))
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (list, tuple, np.ndarray, sp.MatrixBase)):
+            continue
+        m = _as_matrix(value)
+        if not isinstance(m, sp.MatrixBase) or m.rows * m.cols > 16 or m.rows * m.cols < 2:
+            continue
+        if m.cols == 1 or m.rows == 1:
+            out += [(f"{name}[{i + 1}]", where) for i in range(len(m))]
+        else:
+            out += [(f"{name}[{i + 1},{j + 1}]", where) for i in range(m.rows) for j in range(m.cols)]
+    return out

@@ -20,6 +20,7 @@ from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
 
+from app.core.answer_check import check_exercise_answer, exercise_entries
 from app.core.errors import UserError
 from app.core.exercise import EXERCISES_DIR, Exercise, load_exercise
 from app.core.expressions import ExpressionError, parse_expression
@@ -28,6 +29,7 @@ from app.panels.exercise_scene import HintDrawer
 from app.panels.exercise_variant import SOLUTIONS, Field, fields, format_value, parse_field
 from app.panels.exercise_view import answers_html, notes_html, question_html, step_html, variant_html
 from app.viewer import mathml
+from app.viewer.answer_box import AnswerBox
 from app.viewer.session import JobCancelled
 
 TITLE = "Exercises"
@@ -149,6 +151,7 @@ class ExercisesPanel:
         self.status = gui.add_html("")
         self.card = gui.add_html("")
         self.answers = gui.add_html("")
+        self.check_box = AnswerBox(self.session, (), self._check_answer, follow_robot=False)
         self.download = gui.add_button("Download the solution (Markdown)", disabled=True,
                                        hint="steps and answers as Markdown with LaTeX ($$ ... $$)")
         self.download_tex = gui.add_button("Download the solution (LaTeX)", disabled=True,
@@ -203,6 +206,7 @@ class ExercisesPanel:
         with self._lock:
             self.state.update(exercise=ex, values={}, texts={}, index=-1, solution=None, solved_values=None)
         self.session.remember(exercise=ex.id, step=None)
+        self.check_box.reset()
         label = option_label(ex)
         if label in self.picker.options and self.picker.value != label:
             self.picker.value = label
@@ -446,8 +450,16 @@ class ExercisesPanel:
         with self._lock:          # callbacks run in a thread pool: one rendering at a time
             self._render_locked()
 
+    def _check_answer(self, entry: str, text: str, hint: int):
+        """"Check my answer" on a revealed step's answer (runs in a background job)."""
+        sol = self.solution
+        if sol is None:
+            raise UserError("the solution is still being computed: check again in a moment")
+        return check_exercise_answer(sol, entry, text, hint=hint)
+
     def _render_locked(self) -> None:
         ex, sol, k = self.exercise, self.solution, self.index
+        self.check_box.set_entries(exercise_entries(sol, upto_step=k) if sol is not None and k >= 0 else ())
         self.download.disabled = self.download_tex.disabled = sol is None
         if ex is None:
             self.status.content = ""

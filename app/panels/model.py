@@ -7,9 +7,11 @@ from typing import Callable, Dict, List, Tuple
 import numpy as np
 import sympy as sp
 
+from app.core.answer_check import check_model_entry, model_entries
 from app.core.steps import shorthand_is_clear
 from app.core.tex import model_tex
 from app.viewer import mathml
+from app.viewer.answer_box import AnswerBox
 
 TITLE = "Model"
 ORDER = 10
@@ -107,6 +109,10 @@ def build(session) -> None:
             expanded=False, note=f"τ = Y a with a minimal set of dynamic coefficients (known data: {known}).")
     section("Adaptive regressor Y(q, q̇, q̇r, q̈r)", lambda: blocks(r"Y_r", par.Y_ref, "y"), expanded=False,
             note="Y_r a = M q̈r + C(q, q̇) q̇r + g (+ springs, friction): the Slotine-Li regressor.")
+
+    session.state["model_answer"] = AnswerBox(
+        session, model_entries(robot, dyn),
+        lambda entry, text, hint: check_model_entry(robot, dyn, entry, text, hint=hint), expand=True)
 
     download = gui.add_button("Download the model (LaTeX)", hint="a .tex fragment (amsmath) of the formulas above "
                               "and the derivation steps")
