@@ -24,6 +24,9 @@ def open_page(lab, browser, query, robot, width=shots.WIDTH, height=shots.HEIGHT
     return page, session
 
 
+SELECTED_TAB = "() => document.querySelector('[role=tab][aria-selected=true]').textContent.trim()"
+
+
 def field(page, label):
     """The input of a labelled row in the open tab (other tabs have rows of the same name)."""
     return page.locator(f"xpath=//label[normalize-space()='{label}']"
@@ -107,6 +110,8 @@ def test_check_my_answer_in_the_exercises_tab(lab, browser):
         shots.wait_until(lambda: "M[2,2]" in box.entries(), 10, "the entries of the step that shows M")
         assert all(panel.solution.answer_step(e.split("[")[0]) <= k for e in box.entries())
         m22 = panel.solution.answers["M"][1, 1]
+        shots.select_tab(page, "Exercises")
+        shots.wait_until(lambda: page.evaluate(SELECTED_TAB) == "Exercises", 10, "the Exercises tab")
         page.get_by_text("Check my answer", exact=True).locator("visible=true").first.click()    # open the folder
         choose(page, "Entry", f"M[2,2] · step {k + 1}")
         text = answer(page, str(m22).replace("**", "^"), "right")
