@@ -301,11 +301,15 @@ class Session:
                 return
             self._load_selected()
 
-        self._report.on_update(self._page_reported)
         specs, errors = discover_panels_with_errors()
         self._panel_specs = specs
         for err in errors:
             self.notify("A panel failed to load", err.splitlines()[0], error=True)
+        # listen to the page's reports only now that everything they use is here; a report that
+        # came before (a fast client: the field exists in the page since add_text) is read here
+        self._report.on_update(self._page_reported)
+        if self._report.value:
+            self._page_report(self._report.value)
         self._url_writer.content = url_state.bridge_html()
         # the first robot comes from the page's address, once the page reports it
         timer = threading.Timer(URL_WAIT, self._start, ("",))
@@ -359,7 +363,10 @@ class Session:
         """The page reported its address (``url ?...``) or a click on a panel tab (``tab Title``)."""
         if event.client is None:
             return
-        kind, _, text = self._report.value.partition(" ")
+        self._page_report(self._report.value)
+
+    def _page_report(self, value: str) -> None:
+        kind, _, text = value.partition(" ")
         if kind == "url":
             self._start(text)
         elif kind == "tab":
