@@ -19,7 +19,9 @@ Checked and printed: p50/p95/max latency per phase, samples lost (no pose within
 heavy clients' work done (derivations, optimizer runs, towers refused), per-client independence
 (every link1 angle a client receives is one it set itself, or its initial 0), the server's
 resident memory (RSS) after the clients connected, at its peak, at the end and 5 s after every
-client left, and the load average.
+client left, and the load average. ``--switch-interval 0.001`` starts the server with a shorter
+interpreter-lock switch interval (to compare); ``R2LOAD_DEBUG=1`` prints lost samples and the
+clients' connection errors.
 """
 from __future__ import annotations
 
@@ -288,13 +290,20 @@ def main(argv=None) -> int:
     parser.add_argument("--seconds", type=float, default=60.0, help="length of the loaded phase")
     parser.add_argument("--baseline", type=float, default=15.0, help="length of the phase without heavy clients")
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--switch-interval", type=float, default=None,
+                        help="the server's sys.setswitchinterval (how long a thread holds the interpreter lock "
+                             "before another may take it; Python's default 0.005 s)")
     args = parser.parse_args(argv)
     wall0 = time.perf_counter()
     port = _free_port()
     cache = tempfile.mkdtemp(prefix="r2load-cache")
     env = {**os.environ, "R2LAB_CACHE": cache}
     log_file = open(Path(cache) / "server.log", "w")
-    server = subprocess.Popen([sys.executable, "-m", "app", "serve", "--port", str(port)], cwd=ROOT, env=env,
+    command = [sys.executable, "-m", "app", "serve", "--port", str(port)]
+    if args.switch_interval is not None:
+        command = [sys.executable, "-c", f"import sys; sys.setswitchinterval({args.switch_interval!r}); "
+                   f"from app.cli import main; sys.exit(main(['serve', '--port', '{port}']))"]
+    server = subprocess.Popen(command, cwd=ROOT, env=env,
                               stdout=subprocess.DEVNULL, stderr=log_file)
     rss = {}
     peak = [0.0]
