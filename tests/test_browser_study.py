@@ -3,6 +3,9 @@
 Every test opens its own tab on the suite's shared server and Chromium (tests/conftest.py)."""
 import re
 
+import numpy as np
+import pytest
+
 from app.viewer import screenshot as shots
 
 
@@ -12,7 +15,7 @@ def open_page(lab, browser, query, robot, width=shots.WIDTH, height=shots.HEIGHT
     if scale is None:
         page = browser.page(shots.page_url(lab, query), width, height)
     else:
-        context = browser._browser.new_context(viewport={"width": width, "height": height}, device_scale_factor=scale)
+        context = browser.browser.new_context(viewport={"width": width, "height": height}, device_scale_factor=scale)
         page = context.new_page()
         page.goto(shots.page_url(lab, query))
     errors = []
@@ -120,6 +123,72 @@ def test_check_my_answer_in_the_exercises_tab(lab, browser):
         assert "not right" in text
         text = answer(page, "m2 +* 3", "unreadable")
         assert "cannot read" in text
+        assert page.r2_errors == []
+    finally:
+        page.context.close()
+
+
+# ====================================================================== presenter mode
+MATH_PX = "() => { const e = [...document.querySelectorAll('.r2-math math')].find(m => m.offsetParent !== null);" \
+          " return [parseFloat(getComputedStyle(e).fontSize), e.getBoundingClientRect().height]; }"
+LABEL_PX = "() => parseFloat(getComputedStyle([...document.querySelectorAll('label')].find(l => l.offsetParent !== null))" \
+           ".fontSize)"
+OVERFLOWING = "() => [...document.querySelectorAll('.r2-math')].filter(m => m.offsetParent !== null" \
+              " && m.scrollWidth > m.clientWidth + 1).map(m => m.textContent.slice(0, 30))"
+PRESENTER_MATH_PX = 24.0      # CSS px: 36 screen pixels at 150 %, a row of M(q) readable from the back of a room
+
+
+def robot_in_view(session, free):
+    """Every link's points project inside the part ``free`` (0..1 of the width) of the canvas."""
+    from test_browser import link_points
+    camera = session.client.camera
+    if camera.image_width <= 0:
+        return False
+    for points, _ in link_points(session):
+        px = shots.project(camera, points)
+        if not (np.all(px[:, 0] >= 0) and np.all(px[:, 0] <= free * camera.image_width)
+                and np.all(px[:, 1] >= 0) and np.all(px[:, 1] <= camera.image_height)):
+            return False
+    return True
+
+
+def test_presenter_mode_at_150_percent(lab, browser, tmp_path):
+    """A 1280 x 800 screen with the browser at 150 %: 853 x 533 CSS px, 1.5 device pixels per px."""
+    page, session = open_page(lab, browser, "robot=planar_3r&tab=model", "planar_3r", width=853, height=533, scale=1.5)
+    try:
+        page.locator('.r2-model[data-robot="planar_3r"]').wait_for(state="attached")
+        shots.hide_notifications(page)
+        math_off, height_off = page.evaluate(MATH_PX)
+        label_off = page.evaluate(LABEL_PX)
+        assert math_off < 18.0
+        page.get_by_text("Display", exact=True).first.click()
+        page.get_by_text("Presenter mode", exact=True).click()
+        page.locator(".r2-presenter").wait_for(state="attached", timeout=5000)
+        shots.wait_until(lambda: page.evaluate(MATH_PX)[0] >= PRESENTER_MATH_PX, 5, "the larger math")
+        math_on, height_on = page.evaluate(MATH_PX)
+        assert math_on >= PRESENTER_MATH_PX and math_on >= 1.5 * math_off and height_on >= 1.5 * height_off
+        assert page.evaluate(LABEL_PX) >= 1.2 * label_off
+        panel = page.evaluate("() => { let e = document.querySelector('.r2-presenter');"
+                              " while (e && getComputedStyle(e).position !== 'absolute') e = e.parentElement;"
+                              " const r = e.getBoundingClientRect(); return [r.left, r.width]; }")
+        assert panel[1] == pytest.approx(853 / 2, abs=2) and panel[0] + panel[1] <= 853 + 1
+        assert session.scene.line_scale > 1.5
+        # M(q), c and g laid out again for the larger math: no formula scrolls sideways
+        shots.wait_until(lambda: page.evaluate(OVERFLOWING) == [], 10, "the formulas laid out for presenter mode")
+        # the robot is framed in the half of the view the panel leaves free
+        shots.wait_until(lambda: robot_in_view(session, 0.5), 10, "the 3R in view left of the panel")
+        page.evaluate("() => { const m = [...document.querySelectorAll('.r2-math')].find(e => e.offsetParent !== null);"
+                      " let v = m.parentElement; while (v && !(v.scrollHeight > v.clientHeight + 1 &&"
+                      " /auto|scroll/.test(getComputedStyle(v).overflowY))) v = v.parentElement;"
+                      " v.scrollTop += m.getBoundingClientRect().top - v.getBoundingClientRect().top - 120; }")
+        shots.settle(page, 1.0)
+        page.screenshot(path=str(tmp_path / "presenter_mode.png"))
+        print(f"math {math_off:.2f} -> {math_on:.2f} CSS px, height {height_off:.1f} -> {height_on:.1f}, "
+              f"labels {label_off:.2f} -> {page.evaluate(LABEL_PX):.2f}, panel {panel}")
+        # off again: everything back
+        page.get_by_text("Presenter mode", exact=True).click()
+        shots.wait_until(lambda: page.evaluate(MATH_PX)[0] == pytest.approx(math_off, abs=0.1), 5, "the normal math")
+        assert session.scene.panel_fraction is None
         assert page.r2_errors == []
     finally:
         page.context.close()

@@ -36,18 +36,26 @@ def build(session) -> None:
 
     short = shorthand_is_clear(robot.parameters)
 
+    presenter = getattr(session, "presenter", None)
+    layout = {"width": presenter.math_width_em(mathml.PANEL_WIDTH_EM) if presenter else mathml.PANEL_WIDTH_EM}
+    symbolic: List[Tuple[object, str, Callable[[], List[str]]]] = []
+
     def blocks(name, matrix, entry, symmetric=False):
-        return mathml.matrix_latex_blocks(name, matrix, coords, entry, symmetric=symmetric, short_trig=short)
+        return mathml.matrix_latex_blocks(name, matrix, coords, entry, width_em=layout["width"],
+                                          symmetric=symmetric, short_trig=short)
+
+    def typeset(title, make_blocks):
+        key = (robot.content_hash, title, short, layout["width"])
+        return _cached(key, lambda: mathml.blocks_html(make_blocks()))
 
     def section(title, make_blocks, numeric=None, expanded=True, note=""):
         """A folder with the typeset symbolic term (``make_blocks()`` gives its LaTeX blocks) and
         a live numeric value."""
-        html = _cached((robot.content_hash, title, short), lambda: mathml.blocks_html(make_blocks()))
         folder = gui.add_folder(title, expand_by_default=expanded)
         with folder:
             if note:
                 gui.add_html(mathml.label_html(note))
-            gui.add_html(html)
+            symbolic.append((gui.add_html(typeset(title, make_blocks)), title, make_blocks))
             if numeric is not None:
                 handle = gui.add_html("")
                 updaters.append((handle, numeric))
@@ -123,6 +131,28 @@ def build(session) -> None:
         for handle, fn in updaters:
             handle.content = fn()
 
+    def presenter_switched(on):
+        """Presenter mode: the formulas laid out again for the width of the larger math."""
+        if session.generation != generation:
+            return
+        width = presenter.math_width_em(mathml.PANEL_WIDTH_EM)
+
+        def work(progress):
+            progress(0.0, "formulas")
+            return [typeset(title, make_blocks) for _, title, make_blocks in symbolic]
+
+        def done(htmls):
+            with session.holding(generation) as current:
+                if current and layout["width"] == width:
+                    for (handle, _, _), html in zip(symbolic, htmls):
+                        handle.content = html
+
+        layout["width"] = width
+        session.run_in_background(work, "Laying out the formulas", on_done=done)
+
+    generation = session.generation
+    if presenter is not None:
+        presenter.listen("model", presenter_switched)
     refresh()
     session.on_q_change(refresh)
     session.on_parameters_change(refresh)

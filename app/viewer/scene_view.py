@@ -52,6 +52,8 @@ class SceneView:
         self.highlighted: Dict[str, List[str]] = {"bodies": [], "joints": []}
         self._frame_pending = False
         self._camera_hooked = False
+        self.line_scale = 1.0                  # presenter mode: lines drawn from now on are thicker
+        self.panel_fraction: Optional[float] = None   # presenter mode: share of the width the panel covers
         self._gravity = None
         self._gravity_place = None
         # flat textbook look, and cheap frames in software WebGL: no shadows, no environment map
@@ -304,7 +306,7 @@ class SceneView:
         pts = np.asarray(points, dtype=np.float32).reshape(-1, 3)
         segments = np.stack([pts[:-1], pts[1:]], axis=1)
         handle = self.scene.add_line_segments(self._node(name), segments, colors=color,
-                                              thickness=width, thickness_units="screen")
+                                              thickness=width * self.line_scale, thickness_units="screen")
         return self._put(name, handle)
 
     def add_trajectory(self, name: str, points, color: Color = (31, 119, 180), width: float = 2.5):
@@ -359,6 +361,8 @@ class SceneView:
             width = camera.image_width if camera.image_height > 0 else 1280
             aspect = width / camera.image_height if camera.image_height > 0 else 16 / 9
             occluded = SIDE_PANEL_PX / width if width > 2.2 * SIDE_PANEL_PX else 0.0
+            if self.panel_fraction is not None:
+                occluded = self.panel_fraction
             framing = self.drawing.framing(self.q)
             position, look_at, up = camera_pose(framing, fov=fov, aspect=aspect, occluded_right=occluded)
             forward = (look_at - position) / np.linalg.norm(look_at - position)

@@ -27,6 +27,7 @@ from app.panels import PanelSpec, discover_panels_with_errors
 from app.scene import RobotDrawing, default_q
 from app.viewer import mathml, url_state
 from app.viewer.fields import CommittedField
+from app.viewer.presenter import Presenter
 from app.viewer.scene_view import SceneView
 
 # order of the page's fixed elements (panels' tab group comes last)
@@ -253,6 +254,7 @@ class Session:
         gui.configure_theme(control_width="large", show_logo=False, show_share_button=False,
                             brand_color=(46, 94, 170))
         gui.add_html(mathml.font_style(), order=ORDER_STYLE)
+        self.presenter = Presenter(self, order=ORDER_STYLE + 0.3)
         catalog = self.lab.catalog()
         self._catalog = catalog
         groups = [g for g in GROUP_LABELS if any(info.group == g for info in catalog)]
@@ -284,6 +286,7 @@ class Session:
                 box.on_update(lambda event, key=key: self.scene.set_option(key, event.target.value))
             gui.add_button("Frame the robot", hint="camera back to the full view").on_click(
                 lambda _: self.scene.frame_camera())
+            self.presenter.add_switch()
 
         @self._group_dropdown.on_update
         def _(event):
