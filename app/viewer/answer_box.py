@@ -22,6 +22,7 @@ from app.core.errors import UserError
 from app.viewer import mathml
 from app.viewer.fields import CommittedField
 
+MAX_ANSWER = 2000      # characters: an answer to one entry is never longer; a paste of more is refused
 PROMPT = "Pick an entry, type your expression (e.g. m2*l1*d2*cos(q2), c2, s12, q2', θ) and pause."
 
 
@@ -44,6 +45,8 @@ def verdict_html(verdict, seq: int = 0) -> str:
 
 
 def message_html(state: str, text: str, seq: int = 0) -> str:
+    if len(text) > 300:            # the parser's messages quote the answer: keep the line short
+        text = text[:280] + " … " + text[-15:]
     color = {"unreadable": "#b3261e"}.get(state, "#444")
     return _wrap(state, f'<div style="color:{color}">{html.escape(text)}</div>', seq)
 
@@ -149,6 +152,10 @@ class AnswerBox:
             seq = self._seq
         if not text:
             self.verdict.content = message_html("idle", "", seq)
+            return
+        if len(text) > MAX_ANSWER:
+            self.verdict.content = message_html("unreadable", f"the answer is {len(text)} characters long; "
+                                                f"one entry needs at most {MAX_ANSWER}", seq)
             return
         self.verdict.content = message_html("checking", "Checking ...", seq)
 
