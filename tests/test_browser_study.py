@@ -192,3 +192,30 @@ def test_presenter_mode_at_150_percent(lab, browser, tmp_path):
         assert page.r2_errors == []
     finally:
         page.context.close()
+
+
+def test_presenter_mode_stays_on_through_a_robot_switch_in_its_own_tab_only(lab, browser):
+    page, session = open_page(lab, browser, "robot=planar_3r&tab=model", "planar_3r", width=853, height=533, scale=1.5)
+    try:
+        page.locator('.r2-model[data-robot="planar_3r"]').wait_for(state="attached")
+        math_off = page.evaluate(MATH_PX)[0]
+        session.presenter.set(True)
+        assert session.presenter.switch.value is True
+        # the Model tab is rebuilt after a switch, laid out for presenter mode
+        session.load_robot("planar_2r")
+        page.locator('.r2-model[data-robot="planar_2r"]').wait_for(state="attached", timeout=20000)
+        shots.wait_until(lambda: page.evaluate(MATH_PX)[0] >= PRESENTER_MATH_PX and page.evaluate(OVERFLOWING) == [],
+                         10, "presenter mode after a robot switch")
+        shots.wait_until(lambda: robot_in_view(session, 0.5), 10, "the 2R in view left of the panel")
+        # ... and belongs to this tab only
+        other, other_session = open_page(lab, browser, "robot=planar_3r&tab=model", "planar_3r", width=853,
+                                         height=533, scale=1.5)
+        try:
+            other.locator('.r2-model[data-robot="planar_3r"]').wait_for(state="attached")
+            assert other.evaluate(MATH_PX)[0] == pytest.approx(math_off, abs=0.1)
+            assert other.locator(".r2-presenter").count() == 0 and not other_session.presenter.on
+        finally:
+            other.context.close()
+        assert page.r2_errors == []
+    finally:
+        page.context.close()
