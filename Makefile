@@ -21,7 +21,7 @@ run: setup
 	$(BIN)/python -m app
 
 test: setup browser
-	$(BIN)/python -m pytest -q -n 2 --dist worksteal --durations=15
+	$(BIN)/python -m pytest -q -n 3 --dist worksteal --durations=15
 
 bench: setup
 	$(BIN)/python -m benchmarks
