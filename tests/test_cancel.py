@@ -13,10 +13,10 @@ import time
 
 import msgspec
 import pytest
-import viser
 from websockets.sync.client import connect
 
 from app.viewer.session import JobCancelled
+from test_server_guard import PROTOCOL, say_hello, wait_for, ws_url
 
 # most CPU time a computation may spend between two progress calls (measured: at most 0.15 s of
 # wall time for derivations and simulations, 0.5 s for the optimizer and the verification, on the
@@ -92,28 +92,12 @@ def test_the_closed_loop_monte_carlo_stops():
 
 
 # ---------------------------------------------------------------------------------- the button
-PROTOCOL = [f"viser-v{viser.__version__}"]
-
-
-def wait_for(condition, timeout=90.0):
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        value = condition()
-        if value:
-            return value
-        time.sleep(0.05)
-    raise AssertionError("timed out")
-
-
 def test_the_cancel_button_stops_a_job_and_says_so(lab):
     before = set(lab.sessions)
     own = f"http://127.0.0.1:{lab.viser.get_port()}"
-    with connect(f"ws://127.0.0.1:{lab.viser.get_port()}", subprotocols=PROTOCOL,
+    with connect(ws_url(lab), subprotocols=PROTOCOL,
                  additional_headers={"Origin": own}, max_size=None) as ws:
-        ws.send(msgspec.msgpack.encode({
-            "type": "ViewerCameraMessage", "wxyz": [1.0, 0.0, 0.0, 0.0], "position": [0.0, -3.0, 1.0],
-            "fov": 1.0, "near": 0.01, "far": 100.0, "image_height": 480, "image_width": 640,
-            "look_at": [0.0, 0.0, 0.0], "up_direction": [0.0, 0.0, 1.0]}))
+        say_hello(ws)
         session = lab.sessions[wait_for(lambda: set(lab.sessions) - before).pop()]
         ws.send(msgspec.msgpack.encode({"type": "GuiUpdateMessage", "uuid": session._report._impl.uuid,
                                         "updates": {"value": "url ?robot=planar_2r"}}))
@@ -158,12 +142,9 @@ def test_a_job_stops_when_its_tab_closes(lab):
     before = set(lab.sessions)
     own = f"http://127.0.0.1:{lab.viser.get_port()}"
     running, stopped = threading.Event(), threading.Event()
-    with connect(f"ws://127.0.0.1:{lab.viser.get_port()}", subprotocols=PROTOCOL,
+    with connect(ws_url(lab), subprotocols=PROTOCOL,
                  additional_headers={"Origin": own}, max_size=None) as ws:
-        ws.send(msgspec.msgpack.encode({
-            "type": "ViewerCameraMessage", "wxyz": [1.0, 0.0, 0.0, 0.0], "position": [0.0, -3.0, 1.0],
-            "fov": 1.0, "near": 0.01, "far": 100.0, "image_height": 480, "image_width": 640,
-            "look_at": [0.0, 0.0, 0.0], "up_direction": [0.0, 0.0, 1.0]}))
+        say_hello(ws)
         session = lab.sessions[wait_for(lambda: set(lab.sessions) - before).pop()]
 
         def job(progress):
