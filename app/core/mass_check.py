@@ -112,15 +112,7 @@ def configurations(robot: RobotModel, seed: int = 0, count: int = 3) -> List[np.
     """q = 0 and ``count`` seeded random configurations (within the position limits, else in
     [-pi, pi])."""
     rng = np.random.default_rng(seed)
-    out = [np.zeros(robot.n)]
-    for _ in range(count):
-        q = np.empty(robot.n)
-        for i, name in enumerate(robot.coordinates):
-            lim = robot.limits.get(name)
-            lo, hi = lim.position if lim is not None and lim.position is not None else (-math.pi, math.pi)
-            q[i] = rng.uniform(lo, hi)
-        out.append(q)
-    return out
+    return [np.zeros(robot.n)] + [robot.random_configuration(rng) for _ in range(count)]
 
 
 def singular_directions(robot: RobotModel, values: Mapping[sp.Symbol, float]) -> Optional[str]:

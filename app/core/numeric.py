@@ -368,14 +368,8 @@ class CrossCheck:
 
 
 def random_state(robot: RobotModel, rng: np.random.Generator) -> Tuple[np.ndarray, np.ndarray]:
-    q = np.empty(robot.n)
-    for i, name in enumerate(robot.coordinates):
-        lim = robot.limits.get(name)
-        if lim is not None and lim.position is not None:
-            lo, hi = lim.position
-            q[i] = rng.uniform(lo, hi)
-        else:
-            q[i] = rng.uniform(-np.pi, np.pi)
+    """(q within the position limits, q' in [-2, 2]) drawn from ``rng``."""
+    q = robot.random_configuration(rng)
     return q, rng.uniform(-2, 2, robot.n)
 
 

@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 
+import numpy as np
 import sympy as sp
 
 from .errors import UserError
@@ -261,6 +262,22 @@ class RobotModel:
                     raise KeyError(f"robot {self.name} has no parameter '{key}'")
                 values[key] = float(value)
         return values
+
+    def random_configuration(self, rng: np.random.Generator) -> np.ndarray:
+        """q drawn uniformly within each coordinate's position limits, else in [-pi, pi] (one draw
+        per coordinate, in order).
+
+        >>> from app.core.robot import load_robot
+        >>> q = load_robot("planar_2r").random_configuration(np.random.default_rng(0))
+        >>> q.shape, bool(np.all(np.abs(q) <= np.pi))
+        ((2,), True)
+        """
+        q = np.empty(self.n)
+        for i, name in enumerate(self.coordinates):
+            lim = self.limits.get(name)
+            lo, hi = lim.position if lim is not None and lim.position is not None else (-np.pi, np.pi)
+            q[i] = rng.uniform(lo, hi)
+        return q
 
     def check_parameter_value(self, name: str, value) -> float:
         """A new value of one of the robot's parameters, checked by ``check_parameter``."""
