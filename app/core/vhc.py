@@ -1305,9 +1305,7 @@ class ThrowOptimizer:
         n = self.degree + 1
         B = X.shape[0]
         self.evaluations += B
-        if self._progress is not None and time.monotonic() - self._reported > 0.2:
-            self._reported = time.monotonic()       # by the clock: the search itself never depends on it
-            self._progress(self.evaluations / self._max_evaluations, f"{self.evaluations} evaluations")
+        self._report_by_clock(self.evaluations / self._max_evaluations, f"{self.evaluations} evaluations")
         thb = X[:, 2 * n:2 * n + 1]
         the = np.maximum(X[:, 2 * n + 1:2 * n + 2], thb + 1e-3)
         batch = _Batch(X[:, :n], X[:, n:2 * n], thb, the, X[:, 2 * n + 2:2 * n + 3], X[:, 2 * n + 3:2 * n + 4],
@@ -1385,6 +1383,13 @@ class ThrowOptimizer:
         except _Timeout:
             pass
 
+    def _report_by_clock(self, fraction: float, message: str) -> None:
+        """During ``run``: report progress at most every 0.2 s (by the clock: the search itself
+        never depends on it; the report may stop the run by raising)."""
+        if self._progress is not None and time.monotonic() - self._reported > 0.2:
+            self._reported = time.monotonic()
+            self._progress(fraction, message)
+
     def _out_of_budget(self, next_batch: int = 0) -> bool:
         """The evaluation budget would be exceeded by the next batch, or the optional time cap passed."""
         if time.monotonic() > self._deadline:
@@ -1402,9 +1407,7 @@ class ThrowOptimizer:
         tries = 0
         while len(out) < count and tries < 20 * count:
             tries += 1
-            if self._progress is not None and time.monotonic() - self._reported > 0.2:
-                self._reported = time.monotonic()
-                self._progress(0.0, f"global stage: {len(out)} of {count} swings drawn")
+            self._report_by_clock(0.0, f"global stage: {len(out)} of {count} swings drawn")
             q_end = release_pose + rng.normal(0.0, [0.15, 0.15, 0.2])
             q_start = np.array([rng.uniform(q_end[0] + 0.2, lim["upper"][0] - 0.5), rng.uniform(-0.3, 1.2),
                                 rng.uniform(-0.5, 1.2)])
@@ -1456,51 +1459,53 @@ class ThrowOptimizer:
                                       progress=lambda f, m: report(0.02 * f, m))
         self._reported = time.monotonic()
         self._progress = report if progress else None
-        pool = self.candidates(rng, candidates, bound.q)
-        pool = pool[:max(1, min(len(pool), evaluations))]        # the global stage fits in the budget too
-        scores = np.full(len(pool), -np.inf)
-        for i in range(0, len(pool), 250):
-            if i and self._out_of_budget(0):
-                break
-            dist, C = self.evaluate(pool[i:i + 250])
-            scores[i:i + 250] = dist + 20.0 * np.sum(np.minimum(C, 0.0), axis=1)
-        report(self.evaluations / evaluations, f"global stage: {int(np.isfinite(scores).sum())} candidates scored")
-        chosen: List[np.ndarray] = []
-        span = self.upper - self.lower
-        for j in np.argsort(-scores):
-            if not np.isfinite(scores[j]):
-                break
-            if all(np.max(np.abs(pool[j] - c) / span) > 0.02 for c in chosen):
-                chosen.append(pool[j])
-            if len(chosen) >= starts:
-                break
-        runs = 0
-        for x0 in chosen:
-            if self._out_of_budget(len(x0) + 1) or self._best[0] >= (1.0 - stop_within) * bound.distance_from_base:
-                break
-            self._local(x0)
-            runs += 1
-            best = f"best {self._best[0]:.4f} m" if self._best[1] is not None else "no feasible throw yet"
-            report(self.evaluations / evaluations, f"local run {runs}/{len(chosen)}, {self.evaluations} evaluations: {best}")
-        if self._best[1] is None:
-            raise VHCError("the optimizer found no throw that satisfies every constraint; raise the budget")
-        for _attempt in range(4):   # dense verification; tighten the margin if something slipped between nodes
-            best = self._best[1]
-            spec = self.to_spec(best)
-            throw = self.arm.solve(spec)
-            feas = throw.check(q1_min=Q1_MIN_EQ_4_5)
-            if feas.feasible:
-                break
-            self.margin *= 0.995
-            self._best = (-np.inf, None)
-            self._deadline = np.inf      # the repair is bounded by evaluations only
-            self._max_evaluations = self.evaluations + max(2000, evaluations // 10)
-            self._local(best)
+        try:
+            pool = self.candidates(rng, candidates, bound.q)
+            pool = pool[:max(1, min(len(pool), evaluations))]        # the global stage fits in the budget too
+            scores = np.full(len(pool), -np.inf)
+            for i in range(0, len(pool), 250):
+                if i and self._out_of_budget(0):
+                    break
+                dist, C = self.evaluate(pool[i:i + 250])
+                scores[i:i + 250] = dist + 20.0 * np.sum(np.minimum(C, 0.0), axis=1)
+            report(self.evaluations / evaluations, f"global stage: {int(np.isfinite(scores).sum())} candidates scored")
+            chosen: List[np.ndarray] = []
+            span = self.upper - self.lower
+            for j in np.argsort(-scores):
+                if not np.isfinite(scores[j]):
+                    break
+                if all(np.max(np.abs(pool[j] - c) / span) > 0.02 for c in chosen):
+                    chosen.append(pool[j])
+                if len(chosen) >= starts:
+                    break
+            runs = 0
+            for x0 in chosen:
+                if self._out_of_budget(len(x0) + 1) or self._best[0] >= (1.0 - stop_within) * bound.distance_from_base:
+                    break
+                self._local(x0)
+                runs += 1
+                best = f"best {self._best[0]:.4f} m" if self._best[1] is not None else "no feasible throw yet"
+                report(self.evaluations / evaluations, f"local run {runs}/{len(chosen)}, {self.evaluations} evaluations: {best}")
             if self._best[1] is None:
-                self._best = (-np.inf, best)
-        rel = throw.release
-        d = rel.distance_from_base_thesis if self.objective == "thesis" else rel.distance_from_base
-        self._progress = None
+                raise VHCError("the optimizer found no throw that satisfies every constraint; raise the budget")
+            for _attempt in range(4):   # dense verification; tighten the margin if something slipped between nodes
+                best = self._best[1]
+                spec = self.to_spec(best)
+                throw = self.arm.solve(spec)
+                feas = throw.check(q1_min=Q1_MIN_EQ_4_5)
+                if feas.feasible:
+                    break
+                self.margin *= 0.995
+                self._best = (-np.inf, None)
+                self._deadline = np.inf      # the repair is bounded by evaluations only
+                self._max_evaluations = self.evaluations + max(2000, evaluations // 10)
+                self._local(best)
+                if self._best[1] is None:
+                    self._best = (-np.inf, best)
+            rel = throw.release
+            d = rel.distance_from_base_thesis if self.objective == "thesis" else rel.distance_from_base
+        finally:
+            self._progress = None           # a cancelled or failed run leaves no report behind
         if progress:
             progress(1.0, f"best {d:.4f} m from the base")
         return OptimizationResult(spec, throw, feas, self.objective, float(d), bound, self.evaluations, runs,
