@@ -36,8 +36,8 @@ def build(session) -> None:
 
     short = shorthand_is_clear(robot.parameters)
 
-    presenter = getattr(session, "presenter", None)
-    layout = {"width": presenter.math_width_em(mathml.PANEL_WIDTH_EM) if presenter else mathml.PANEL_WIDTH_EM}
+    presenter = session.presenter
+    layout = {"width": presenter.math_width_em(mathml.PANEL_WIDTH_EM)}
     symbolic: List[Tuple[object, str, Callable[[], List[str]]]] = []
 
     def blocks(name, matrix, entry, symmetric=False):
@@ -151,8 +151,7 @@ def build(session) -> None:
         session.run_in_background(work, "Laying out the formulas", on_done=done)
 
     generation = session.generation
-    if presenter is not None:
-        presenter.listen("model", presenter_switched)
+    session.on_presenter_change(presenter_switched)
     refresh()
     session.on_q_change(refresh)
     session.on_parameters_change(refresh)

@@ -32,19 +32,16 @@ def style_html(on: bool) -> str:
 
 
 class Presenter:
-    """``Presenter(session, order)`` adds the (top-level) style holder; ``add_switch()`` the
-    checkbox (call it inside the Display folder); ``set(on)`` switches (tests, pictures)."""
+    """``Presenter(session, order, on_switch)`` adds the (top-level) style holder; ``add_switch()``
+    the checkbox (call it inside the Display folder); ``set(on)`` switches (tests, pictures) and
+    then calls ``on_switch(on)`` (the session tells the panels: ``session.on_presenter_change``)."""
 
-    def __init__(self, session, order: float):
+    def __init__(self, session, order: float, on_switch):
         self.session = session
         self.on = False
         self._style = session.gui.add_html("", order=order)
         self.switch = None
-        self._listeners = {}
-
-    def listen(self, name: str, callback) -> None:
-        """``callback(on)`` after every switch; one per ``name`` (a rebuilt panel replaces its own)."""
-        self._listeners[name] = callback
+        self._on_switch = on_switch
 
     def math_width_em(self, normal: float) -> float:
         """The width to lay formulas out for: ``normal`` when off."""
@@ -66,6 +63,5 @@ class Presenter:
         self._style.content = style_html(on)
         if self.switch is not None and self.switch.value != on:
             self.switch.value = on
-        for callback in list(self._listeners.values()):
-            callback(on)
+        self._on_switch(on)
         scene.frame_camera()

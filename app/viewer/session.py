@@ -136,7 +136,7 @@ class Session:
         self._lock = threading.RLock()
         self._build_lock = threading.RLock()     # one thread builds or clears the panels at a time
         self._executor = ThreadPoolExecutor(max_workers=2, thread_name_prefix=f"session{client.client_id}")
-        self._listeners: Dict[str, List] = {"robot": [], "parameters": [], "q": []}
+        self._listeners: Dict[str, List] = {"robot": [], "parameters": [], "q": [], "presenter": []}
         self._owner = threading.local()
         self._sliders: List = []
         self._param_fields: Dict[str, CommittedField] = {}
@@ -196,6 +196,10 @@ class Session:
         """Call ``callback(values)`` after a parameter value changes (model already updated)."""
         self._add_listener("parameters", callback)
 
+    def on_presenter_change(self, callback: Callable[[bool], None]) -> None:
+        """Call ``callback(on)`` after presenter mode is switched on or off."""
+        self._add_listener("presenter", callback)
+
     def on_robot_change(self, callback: Callable[[object], None]) -> None:
         """Call ``callback(robot)`` after another robot is loaded (for panels with REBUILD = False)."""
         self._add_listener("robot", callback)
@@ -254,7 +258,7 @@ class Session:
         gui.configure_theme(control_width="large", show_logo=False, show_share_button=False,
                             brand_color=(46, 94, 170))
         gui.add_html(mathml.font_style(), order=ORDER_STYLE)
-        self.presenter = Presenter(self, order=ORDER_STYLE + 0.3)
+        self.presenter = Presenter(self, order=ORDER_STYLE + 0.3, on_switch=lambda on: self._fire("presenter", on))
         catalog = self.lab.catalog()
         self._catalog = catalog
         groups = [g for g in GROUP_LABELS if any(info.group == g for info in catalog)]
@@ -764,8 +768,7 @@ class Session:
         last = detail.strip().splitlines()[-1] if detail.strip() else repr(exc)
         self.notify(f"Internal error{where}", last, error=True)
 
-    def _job(self, fn, title: str, on_done, cancelled: Optional[threading.Event] = None, on_cancel=None):
-        cancelled = cancelled if cancelled is not None else threading.Event()
+    def _job(self, fn, title: str, on_done, cancelled: threading.Event, on_cancel=None):
         state = {"bar": None, "label": None, "button": None, "fraction": 0.0, "message": "", "done": False}
         lock = threading.Lock()
         def show():
