@@ -129,13 +129,8 @@ class AnswerBox:
 
     def _entry_changed(self, event) -> None:
         """Another entry: the old answer and verdict go (the student types the new one)."""
-        if event.client is None:
-            return
-        with self._lock:
-            self._seq += 1
-            seq = self._seq
-        self.field.set("")
-        self.verdict.content = message_html("idle", "", seq)
+        if event.client is not None:
+            self.reset()
 
     def _hint_changed(self, event) -> None:
         if event.client is not None and self.text.value.strip():
@@ -147,9 +142,7 @@ class AnswerBox:
             return
         text = str(text).strip()
         hint = 2 if self.more.value else 1
-        with self._lock:
-            self._seq += 1
-            seq = self._seq
+        seq = self._next_seq()
         if not text:
             self.verdict.content = message_html("idle", "", seq)
             return
@@ -176,12 +169,16 @@ class AnswerBox:
         self.session.run_in_background(work, f"Checking {entry}", on_done=done)
 
     def reset(self) -> None:
-        """Empty the answer and the verdict (another exercise was opened)."""
-        with self._lock:
-            self._seq += 1
-            seq = self._seq
+        """Empty the answer and the verdict (another entry chosen, another exercise opened)."""
+        seq = self._next_seq()
         self.field.set("")
         self.verdict.content = message_html("idle", "", seq)
+
+    def _next_seq(self) -> int:
+        """The number of a new check or reset: a check still running for an older one is dropped."""
+        with self._lock:
+            self._seq += 1
+            return self._seq
 
     def close(self) -> None:
         self.field.close()
