@@ -1,8 +1,6 @@
 """Robot files whose inertia matrix M(q) is singular at their default parameter values are refused
 (app/core/mass_check.py, issue 15): a body with its mass on its joint axis and no inertia gave
 M = 0 and was accepted (the fuzz run of docs/reliability.md, seed 2026, cases 3043 and 4880)."""
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -11,6 +9,7 @@ import pytest
 from app.core.mass_check import mass_matrix, singular_directions
 from app.core.numeric import NumericModel
 from app.core.robot import RobotFileError, list_robot_names, load_robot, load_robot_text
+from test_cli import run
 
 ROOT = Path(__file__).resolve().parents[1]
 FIXTURES = ROOT / "tests" / "fixtures"
@@ -53,15 +52,10 @@ bodies:
 """
 
 
-def derive_cli(path: Path) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "app", "derive", str(path)], cwd=ROOT, capture_output=True,
-                          text=True, timeout=300)
-
-
 def test_mass_on_the_joint_axis_is_refused_by_derive_in_one_line(tmp_path):
     path = tmp_path / "on_axis.yaml"
     path.write_text(PENDULUM_ON_AXIS, encoding="utf-8")
-    proc = derive_cli(path)
+    proc = run("derive", str(path), check=False)
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: "), lines[:3]
@@ -70,7 +64,7 @@ def test_mass_on_the_joint_axis_is_refused_by_derive_in_one_line(tmp_path):
 
 
 def test_the_fuzz_case_that_found_it_is_refused(tmp_path):
-    proc = derive_cli(FIXTURES / "refused" / "fuzz_2026_case3043_singular_mass.yaml")
+    proc = run("derive", str(FIXTURES / "refused" / "fuzz_2026_case3043_singular_mass.yaml"), check=False)
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "M(q) is singular" in lines[0] and "theta" in lines[0], lines[:3]
