@@ -295,10 +295,6 @@ def test_address_opens_that_page_and_follows_it(lab, browser, tmp_path):
         page.context.close()
 
 
-def selected_tab(page):
-    return page.evaluate("() => document.querySelector('[role=tab][aria-selected=true]').textContent.trim()")
-
-
 def test_a_clicked_tab_stays_when_a_panel_writes_the_address(lab, browser):
     """Found by the walk: a tab clicked by the student jumped back to the previous one when a
     panel wrote the address (a step revealed) before the page had told the server of the click."""
@@ -308,12 +304,12 @@ def test_a_clicked_tab_stays_when_a_panel_writes_the_address(lab, browser):
             shots.select_tab(page, title)
             session.remember(step=None)              # at once: the click's report is still on its way
             page.wait_for_timeout(400)
-            assert selected_tab(page) == title
+            assert shots.selected_tab(page) == title
             shots.wait_until(lambda: session.url.get("tab") == title.lower(), 5, f"tab={title.lower()} in the address")
         pick(page, session, "rp_2004_03_25")        # same tabs: the choice stays across a switch
-        assert selected_tab(page) == "Robot"
+        assert shots.selected_tab(page) == "Robot"
         pick(page, session, "throwing_arm")          # other tabs: rebuilt, and the address's tab selected again
-        shots.wait_until(lambda: selected_tab(page) == "Robot", 10, "the Robot tab selected again")
+        shots.wait_until(lambda: shots.selected_tab(page) == "Robot", 10, "the Robot tab selected again")
     finally:
         page.context.close()
 

@@ -27,9 +27,6 @@ def open_page(lab, browser, query, robot, width=shots.WIDTH, height=shots.HEIGHT
     return page, session
 
 
-SELECTED_TAB = "() => document.querySelector('[role=tab][aria-selected=true]').textContent.trim()"
-
-
 def field(page, label):
     """The input of a labelled row in the open tab (other tabs have rows of the same name)."""
     return page.locator(f"xpath=//label[normalize-space()='{label}']"
@@ -114,7 +111,7 @@ def test_check_my_answer_in_the_exercises_tab(lab, browser):
         assert all(panel.solution.answer_step(e.split("[")[0]) <= k for e in box.entries())
         m22 = panel.solution.answers["M"][1, 1]
         shots.select_tab(page, "Exercises")
-        shots.wait_until(lambda: page.evaluate(SELECTED_TAB) == "Exercises", 10, "the Exercises tab")
+        shots.wait_until(lambda: shots.selected_tab(page) == "Exercises", 10, "the Exercises tab")
         page.get_by_text("Check my answer", exact=True).locator("visible=true").first.click()    # open the folder
         choose(page, "Entry", f"M[2,2] · step {k + 1}")
         text = answer(page, str(m22).replace("**", "^"), "right")

@@ -7,10 +7,6 @@ from app.viewer import screenshot as shots
 from app.viewer.server import LabServer
 
 
-def selected_tab(page):
-    return page.evaluate("() => document.querySelector('[role=tab][aria-selected=true]').textContent.trim()")
-
-
 def test_tabs_come_back_as_they_were_after_a_restart(browser):
     first = LabServer(port=0, verbose=False)
     port = first.viser.get_port()
@@ -22,7 +18,7 @@ def test_tabs_come_back_as_they_were_after_a_restart(browser):
             page = browser.page(shots.page_url(first, query))
             shots.wait_ready(page, robot)
             shots.new_session(first, before)
-            shots.wait_until(lambda: selected_tab(page) == tab, 10, f"the {tab} tab")
+            shots.wait_until(lambda: shots.selected_tab(page) == tab, 10, f"the {tab} tab")
             pages.append((page, robot, tab))
     finally:
         first.stop()
@@ -33,7 +29,7 @@ def test_tabs_come_back_as_they_were_after_a_restart(browser):
             shots.wait_until(lambda: any(s.robot_name == robot and s.ready.is_set() for s in second.sessions.values()),
                              60, f"{robot} back after the restart")
             shots.wait_ready(page, robot)
-            shots.wait_until(lambda: selected_tab(page) == tab, 10, f"the {tab} tab back")
+            shots.wait_until(lambda: shots.selected_tab(page) == tab, 10, f"the {tab} tab back")
             assert page.evaluate("() => location.search").startswith(f"?robot={robot}")
         assert len(second.sessions) == len(pages)
     finally:

@@ -67,6 +67,11 @@ def select_tab(page, title: str) -> None:
     page.get_by_role("tab", name=title, exact=True).first.click()
 
 
+def selected_tab(page) -> str:
+    """The title of the panel tab on display."""
+    return page.evaluate("() => document.querySelector('[role=tab][aria-selected=true]').textContent.trim()")
+
+
 def scroll_to_tab(page, title: str) -> None:
     """Scroll the side panel so that a tab's content starts at its top."""
     page.evaluate("""(t) => { const el = [...document.querySelectorAll('[role=tab]')]
