@@ -22,7 +22,7 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import sympy as sp
 
-from . import compact, model_cache
+from . import compact, model_cache, reproducible_sympy
 from .compact import natural_angles, nice_coefficient, pretty, tidy  # noqa: F401 (pretty: public here too)
 from .expressions import ExpressionError, NotStorable, dump_exact_list, load_exact_list, symbol
 from .kinematics import Kinematics
@@ -195,6 +195,7 @@ def derive(robot: RobotModel, progress: Progress = None, use_cache: bool = True,
             except (ExpressionError, NotStorable, KeyError, TypeError, ValueError, RecursionError):
                 dyn = None      # a corrupt or crafted entry: derive again and overwrite it
     if dyn is None:
+        reproducible_sympy.restart()
         dyn = _Deriver(robot, progress, known).run()
         if use_cache:
             try:

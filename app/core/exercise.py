@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any, Callable, Dict, List, Mapping, Optional
 
 
+from . import reproducible_sympy
 from .catalog import EXERCISES_DIR, exercise_files
 from .dynamics import Dynamics, derive
 from .errors import UserError
@@ -308,6 +309,7 @@ def solve(exercise: Exercise, given: Optional[Mapping[str, Any]] = None,
         _check_variant(exercise, robot, given)
         data.update(given)
     ctx = TaskContext(exercise, robot, data, progress)
+    reproducible_sympy.restart()
     for i, spec in enumerate(exercise.tasks):
         ctx.progress(i / len(exercise.tasks), spec["kind"])
         ctx.current = f"tasks[{i}] ({spec['kind']})"
