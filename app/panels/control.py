@@ -14,6 +14,7 @@ import numpy as np
 
 from app.core.control import CONTROLLERS, coefficient_values
 from app.core.errors import UserError
+from app.core.plot_series import base_title, index_at, merge_runs, value_range, with_time_marker
 from app.core.sim import SimResult, parse_assignments, parse_contact, parse_numbers, simulate
 from app.core.trajectories import REFERENCE_KINDS
 from app.viewer import mathml
@@ -41,6 +42,12 @@ COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e3
           "#7f7f7f", "#bcbd22"]
 MAX_PLOT_POINTS = 1500
 FPS = 30.0
+#: the plots' time marker is redrawn at most this often (each redraw sends the plots' data)
+MARKER_INTERVAL = 0.2
+#: runs this short (simulated seconds) re-run by themselves when a field of the controller changes
+AUTO_RERUN_MAX = 2.0
+#: seconds without a further change before such a re-run starts
+AUTO_RERUN_DELAY = 0.6
 
 
 def controllers_for(robot) -> List[str]:
@@ -222,6 +229,11 @@ class ControlPanel:
         self._plots: List = []
         self._overlays = set()           # names of this panel's scene overlays
         self._force_scale = 0.0
+        self._plot_data: List[Dict] = []   # per plot: handle, x, columns, marker span
+        self._marker = {"t": 0.0, "last": 0.0, "timer": None}
+        self._marker_lock = threading.Lock()
+        self._rerun_timer: Optional[threading.Timer] = None
+        self._has_run = False
         self._build()
         self.state["panel"] = self
 
@@ -279,6 +291,9 @@ class ControlPanel:
         self.controller.on_update(lambda event: self._controller_changed(event.client is not None))
         self.ref_kind.on_update(lambda event: self._kind_changed() if event.client is not None else None)
         self.run_button.on_click(lambda _: self.run())
+        for field in (self.gains, self.ref_kind, self.ref_params, self.duration, self.rate, self.mismatch,
+                      self.viscous, self.saturation, self.passive, self.observer, self.force, self.surface):
+            field.on_update(self._field_changed)
         self._controller_changed(reset_fields=True, initial=True)
 
     def _name(self) -> str:
@@ -384,45 +399,80 @@ class ControlPanel:
             self._replay.update(t=float(t), playing=False)
         self.time.value = float(t)
         self._show_time(float(t))
+        self._mark_time(float(t), now=True)
 
-    def run(self, wait: bool = False):
-        """Simulate with the current fields (in the background; ``wait`` blocks until done)."""
+    def run(self, wait: bool = False, auto: bool = False):
+        """Simulate with the current fields (in the background; ``wait`` blocks until done). A
+        newer run replaces one still going: the older one stops at its next progress report and
+        never shows. ``auto``: started by a changed field (bad input then shows in the status
+        line only)."""
         try:
             kwargs = self.settings()
         except UserError as exc:
-            self.session.notify("Cannot run", str(exc), error=True)
+            if auto:
+                self.status.content = (f'<div class="r2-label" style="color:#b3261e">not run: '
+                                       f'{html.escape(str(exc))}</div>')
+            else:
+                self.session.notify("Cannot run", str(exc), error=True)
             return None
         self.state.update(duration=self.duration.value, mismatch=self.mismatch.value, observer=self.observer.value,
                           ref_params=self.ref_params.value)
         self._stop_replay()
+        self._has_run = True
         self._runs += 1
         run = self._runs
         self.run_button.disabled = True
-        self.status.content = mathml.label_html("running ...")
+        self.status.content = mathml.label_html("running ..." + (" (re-run after a change)" if auto else ""))
         title = f"Simulating {CONTROLLERS[kwargs['controller']].title}"
+
+        def current() -> bool:
+            return self._alive() and run == self._runs
 
         def work(progress):
             try:
-                return simulate(progress=lambda f, m: progress(f, m) if self._alive() else False, **kwargs)
+                return simulate(progress=lambda f, m: progress(f, m) if current() else False, **kwargs)
             except UserError as exc:
-                self.status.content = (f'<div class="r2-label" style="color:#b3261e">not run: '
-                                       f'{html.escape(str(exc))}</div>')
+                if current():
+                    self.status.content = (f'<div class="r2-label" style="color:#b3261e">not run: '
+                                           f'{html.escape(str(exc))}</div>')
                 raise
             finally:
-                self.run_button.disabled = False
+                if current():
+                    self.run_button.disabled = False
 
         def done(res):
-            if self._alive() and run == self._runs:    # not after a controller switch or a newer run
+            if current():    # not after a controller switch or a newer run
                 self._show_result(res, kwargs)
 
         def cancelled():
-            if self._alive() and run == self._runs:
+            if current():
                 self.status.content = mathml.label_html("cancelled")
 
         future = self.session.run_in_background(work, title, on_done=done, on_cancel=cancelled)
         if wait:
             future.result()
         return future
+
+    def _field_changed(self, event) -> None:
+        """A field of the controller changed: re-run a short simulation (AUTO_RERUN_MAX seconds or
+        less) once the student stops typing for AUTO_RERUN_DELAY seconds."""
+        if event.client is None or not self._has_run:
+            return
+        try:
+            duration = float(self.duration.value)
+        except (TypeError, ValueError):
+            return
+        if duration > AUTO_RERUN_MAX:
+            return
+        if self._rerun_timer is not None:
+            self._rerun_timer.cancel()
+
+        def fire():
+            if self._alive():
+                self.run(auto=True)
+        self._rerun_timer = threading.Timer(AUTO_RERUN_DELAY, fire)
+        self._rerun_timer.daemon = True
+        self._rerun_timer.start()
 
     def _alive(self) -> bool:
         return (self.session.generation == self.generation and self.state.get("panel") is self
@@ -437,7 +487,7 @@ class ControlPanel:
         self.status.content = ""
         for widget in self._result_widgets:
             widget.remove()
-        self._result_widgets, self._plots = [], []
+        self._result_widgets, self._plots, self._plot_data = [], [], []
         scene = self.session.scene
         for name in self._overlays:
             scene.remove_overlay(name)
@@ -460,44 +510,158 @@ class ControlPanel:
             self.session.notify("The run stopped early", res.message, error=True)
         for widget in self._result_widgets:
             widget.remove()
-        self._result_widgets, self._plots = [], []
+        self._result_widgets, self._plots, self._plot_data = [], [], []
         gui = self.gui
         end = float(res.t[-1])
         with self.results:
             self.time = gui.add_slider("Time [s]", min=0.0, max=max(end, 1e-3), step=max(end / 1000, 1e-3),
-                                       initial_value=0.0, hint="scrub through the run")
+                                       initial_value=0.0, hint="scrub through the run; the plots' grey line "
+                                                               "follows")
             self.play = gui.add_button_group("Replay", ("▶ Play", "❚❚ Pause", "Restart"))
             self.speed = gui.add_dropdown("Speed", list(SPEEDS), initial_value="1x")
-            self._result_widgets += [self.time, self.play, self.speed]
-            for title, series in plot_groups(res, self.true_coefficients):
-                self._plots.append(self._add_plot(title, series))
-            self.downloads = gui.add_button_group("Download", ("CSV", "PNG"))
-            self._result_widgets += self._plots + [self.downloads]
-
+            self.keep_button = gui.add_button("Keep this run for comparison", color="gray",
+                                              hint="the next runs' plots show this run's curves, dashed")
+            self.clear_button = gui.add_button("Clear comparison", color="gray", hint="drop the kept run")
+            self.kept_note = gui.add_html("")
+            self._result_widgets += [self.time, self.play, self.speed, self.keep_button, self.clear_button,
+                                     self.kept_note]
         self.time.on_update(self._time_moved)
         self.play.on_click(self._play_clicked)
         self.speed.on_update(lambda _: self._set_speed())
-        self.downloads.on_click(self._download)
+        self.keep_button.on_click(lambda _: self.keep_for_comparison())
+        self.clear_button.on_click(lambda _: self.clear_comparison())
+        self._draw_plots()
         self._draw_paths()
         with self._replay_lock:
             self._replay.update(t=0.0, playing=False)
         self._show_time(0.0)
         self._start_replay()
 
-    def _add_plot(self, title: str, series):
-        idx = _thin(len(self.result.t))
-        power = decade(series)
+    # -------------------------------------------------------------- comparison
+    def kept(self) -> Optional[Dict]:
+        """The run kept for comparison (on this robot), or None."""
+        kept = self.state.get("kept")
+        return kept if kept is not None and kept["robot"] == self.robot.name else None
+
+    def keep_for_comparison(self) -> None:
+        """Keep the run on display: the next runs' plots show its curves beside theirs."""
+        res = self.result
+        if res is None:
+            return
+        idx = _thin(len(res.t))
+        groups = {base_title(title): [(label, np.asarray(v, dtype=float)[idx], ci) for label, v, _, ci in series]
+                  for title, series in plot_groups(res, self.true_coefficients)}
+        self.state["kept"] = {"robot": self.robot.name, "name": res.controller, "title": res.title,
+                              "mismatch": res.settings.get("model_mismatch") or "", "t": res.t[idx],
+                              "groups": groups}
+        self._show_kept_note(just_kept=True)
+
+    def clear_comparison(self) -> None:
+        self.state.pop("kept", None)
+        if self.result is not None:
+            self._draw_plots()
+
+    def _show_kept_note(self, just_kept: bool = False) -> None:
+        kept = self.kept()
+        self.clear_button.disabled = kept is None
+        if kept is None:
+            self.kept_note.content = ""
+            return
+        what = kept["title"] + (f" (model: {kept['mismatch']})" if kept["mismatch"] else "")
+        text = (f"kept for comparison: {what}; run again to see both" if just_kept
+                else f"dashed, lighter: the kept run, {what}")
+        self.kept_note.content = mathml.label_html(text)
+
+    # -------------------------------------------------------------- plots
+    def _draw_plots(self) -> None:
+        """(Re)draw the plots of the run on display, with the kept run's curves if any, and the
+        Download buttons after them."""
+        downloads = getattr(self, "downloads", None)
+        gone = self._plots + ([downloads] if any(w is downloads for w in self._result_widgets) else [])
+        for widget in gone:
+            widget.remove()
+        self._result_widgets = [w for w in self._result_widgets if not any(w is g for g in gone)]
+        self._plots, self._plot_data = [], []
+        kept = self.kept()
+        with self.results:
+            for title, series in plot_groups(self.result, self.true_coefficients):
+                extra = kept["groups"].get(base_title(title), []) if kept is not None else []
+                self._plots.append(self._add_plot(title, series, extra, kept))
+            self.downloads = self.gui.add_button_group("Download", ("CSV", "PNG"))
+        self.downloads.on_click(self._download)
+        self._result_widgets += self._plots + [self.downloads]
+        self._show_kept_note()
+        with self._replay_lock:
+            t = self._replay["t"]
+        self._mark_time(t, now=True)
+
+    def _add_plot(self, title: str, series, extra=(), kept=None):
+        res = self.result
+        idx = _thin(len(res.t))
+        power = decade(series + [(label, v, True, ci) for label, v, ci in extra])
         if power:
             title = f"{title}  [× 1e{power}]"
         scale = 10.0 ** -power
-        data = (self.result.t[idx],) + tuple(scale * np.asarray(v, dtype=float)[idx] for _, v, _, _ in series)
-        cfg = ({"label": "t [s]"},) + tuple(
-            {"label": label, "stroke": COLORS[ci % len(COLORS)], "width": 1.5, **({"dash": [6, 4]} if dashed else {})}
-            for label, _, dashed, ci in series)
-        return self.gui.add_uplot(data=data, series=cfg, title=title, aspect=1.6,
-                                  scales={"x": {"time": False}},
-                                  axes=({"label": "t [s]", "size": 36}, {"size": 52}),
-                                  cursor={"drag": {"x": True, "y": False}})
+        new = [scale * np.asarray(v, dtype=float)[idx] for _, v, _, _ in series]
+        if extra:
+            x, columns = merge_runs(res.t[idx], new, kept["t"], [scale * v for _, v, _ in extra])
+        else:
+            x, columns = res.t[idx], new
+        cfg = [{"label": "t [s]"}]
+        cfg += [{"label": label, "stroke": COLORS[ci % len(COLORS)], "width": 1.5,
+                 **({"dash": [6, 4]} if dashed else {})} for label, _, dashed, ci in series]
+        cfg += [{"label": f"{label} [{kept['name']}]", "stroke": COLORS[ci % len(COLORS)] + "88", "width": 1.5,
+                 "dash": [2, 3]} for label, _, ci in extra]
+        cfg.append({"label": "now", "stroke": "#444444", "width": 1.0, "points": {"show": False}})
+        low, high = value_range(columns)
+        with self._replay_lock:
+            t = self._replay["t"]
+        x2, data = with_time_marker(x, columns, t, low, high)
+        handle = self.gui.add_uplot(data=(x2, *data), series=tuple(cfg), title=title, aspect=1.6,
+                                    scales={"x": {"time": False}},
+                                    axes=({"label": "t [s]", "size": 36}, {"size": 52}),
+                                    cursor={"drag": {"x": True, "y": False}})
+        self._plot_data.append({"handle": handle, "x": x, "columns": columns, "span": (low, high)})
+        return handle
+
+    def _mark_time(self, t: float, now: bool = False) -> None:
+        """Move the plots' time marker to t: at once, or at most every MARKER_INTERVAL seconds
+        (the last time asked for is always drawn, by a timer)."""
+        with self._marker_lock:
+            self._marker["t"] = float(t)
+            wait = MARKER_INTERVAL - (time.monotonic() - self._marker["last"])
+            if not now and wait > 0:
+                if self._marker["timer"] is None:
+                    timer = threading.Timer(wait, self._push_marker)
+                    timer.daemon = True
+                    self._marker["timer"] = timer
+                    timer.start()
+                return
+        self._push_marker()
+
+    def _push_marker(self) -> None:
+        with self._marker_lock:
+            self._marker["timer"] = None
+            self._marker["last"] = time.monotonic()
+            t = self._marker["t"]
+            plots = list(self._plot_data)
+        if not self._alive():
+            return
+        with self.session.client.atomic():
+            for plot in plots:
+                x, data = with_time_marker(plot["x"], plot["columns"], t, *plot["span"])
+                try:
+                    plot["handle"].data = (x, *data)
+                except Exception:     # removed by a newer run or a rebuild
+                    return
+
+    def marker_time(self) -> Optional[float]:
+        """Where the plots' time marker is drawn (None without plots): for tests."""
+        if not self._plot_data:
+            return None
+        marker = np.asarray(self._plot_data[0]["handle"].data[-1])
+        x = np.asarray(self._plot_data[0]["handle"].data[0])
+        return float(x[np.isfinite(marker)][0])
 
     def _draw_paths(self) -> None:
         """The run's fixed overlays: reference and actual paths of a task point, the surfaces."""
@@ -538,7 +702,7 @@ class ControlPanel:
         res = self.result
         if res is None or not self._alive():
             return
-        k = int(min(len(res.t) - 1, max(0, np.searchsorted(res.t, t))))
+        k = index_at(res.t, t)
         scene = self.session.scene
         with self.session.holding(self.generation) as current, self.session.client.atomic():
             if not current:                 # the robot was switched: draw nothing of this run
@@ -566,6 +730,7 @@ class ControlPanel:
         with self._replay_lock:
             self._replay.update(t=float(self.time.value), playing=False)
         self._show_time(float(self.time.value))
+        self._mark_time(float(self.time.value))
 
     def _play_clicked(self, event) -> None:
         value = event.target.value
@@ -581,6 +746,7 @@ class ControlPanel:
                 self._replay.update(t=0.0, playing=False)
                 self.time.value = 0.0
                 self._show_time(0.0)
+                self._mark_time(0.0)
 
     def _set_speed(self) -> None:
         with self._replay_lock:
@@ -624,6 +790,7 @@ class ControlPanel:
                 try:
                     self.time.value = t
                     self._show_time(t)
+                    self._mark_time(t)
                 except Exception:      # widgets removed by a rebuild: stop quietly
                     return
 
