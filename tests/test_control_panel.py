@@ -5,7 +5,7 @@ import time
 import numpy as np
 import pytest
 
-from app.panels.control import plot_groups, plots_png
+from app.panels.control import AUTO_RERUN_DELAY, plot_groups, plots_png
 from app.viewer import screenshot as shots
 
 
@@ -108,89 +108,96 @@ def run_in_page(page, panel, controller, runs_before):
                and panel._runs > runs_before, what=f"the {controller} run")
 
 
-def test_a_kept_run_is_overlaid_on_the_next_runs_plots(lab, browser):
+@pytest.fixture(scope="module")
+def control_page(lab, browser):
+    """One Control tab shared by the tests of issue 12's plots (each sets every field it uses);
+    opening a page is most of a browser test's time."""
+    page, session = open_control(lab, browser)
+    yield page, session
+    page.context.close()
+
+
+def fresh(control_page):
+    page, session = control_page
+    panel = session.state["control"]["panel"]
+    panel.clear_comparison()
+    session.set_q([0.1, 0.2])
+    return page, session, panel
+
+
+def test_a_kept_run_is_overlaid_on_the_next_runs_plots(control_page):
     """Issue 12: Keep this run for comparison, run another controller with the same mismatch,
     both runs' curves in every common plot (the kept one labelled with its controller); Clear."""
-    page, session = open_control(lab, browser)
-    try:
-        panel = session.state["control"]["panel"]
-        session.set_q([0.1, 0.2])
-        panel.configure("computed_torque", reference="quintic by=0.3 T=0.4", mismatch="m2=3", duration=0.5)
-        run_in_page(page, panel, "computed_torque", panel._runs)
-        kept = panel.result
-        page.get_by_role("button", name="Keep this run for comparison").click()
-        page.get_by_text("kept for comparison: ").first.wait_for(timeout=10000)
-        assert not any("[computed_torque]" in label for label in legend_labels(page))   # nothing to compare yet
-        panel.configure("pd_gravity", reference="quintic by=0.3 T=0.4", mismatch="m2=3", duration=0.8)
-        run_in_page(page, panel, "pd_gravity", panel._runs)
-        wait_until(lambda: "τ_q1 [computed_torque]" in legend_labels(page), what="the kept run in the legend")
-        labels = legend_labels(page)
-        assert "e_q2 [computed_torque]" in labels and "τ_q1" in labels
-        torques = next(p for p in panel._plot_data if "τ_q1" in [s["label"] for s in p["handle"].series])
-        names = [s["label"] for s in torques["handle"].series]
-        x = np.asarray(torques["x"])
-        assert np.all(np.diff(x) > 0) and x[-1] == pytest.approx(0.8, abs=1e-9)      # the longer run's end
-        old = np.asarray(torques["columns"][names.index("τ_q1 [computed_torque]") - 1])
-        at = x <= 0.5
-        assert np.all(np.isnan(old[~at]))                                      # the kept run ended at 0.5 s
-        assert np.interp(0.3, x[at], old[at]) == pytest.approx(np.interp(0.3, kept.t, kept.tau[:, 0]),
-                                                               rel=1e-2, abs=1e-2)
-        page.get_by_role("button", name="Clear comparison").click()
-        wait_until(lambda: not any("[computed_torque]" in label for label in legend_labels(page)),
-                   what="the kept curves to go")
-        assert panel.kept() is None and panel.result.controller == "pd_gravity"
-    finally:
-        page.context.close()
+    page, session, panel = fresh(control_page)
+    panel.configure("computed_torque", reference="quintic by=0.3 T=0.4", mismatch="m2=3", duration=0.5)
+    run_in_page(page, panel, "computed_torque", panel._runs)
+    kept = panel.result
+    page.get_by_role("button", name="Keep this run for comparison").click()
+    page.get_by_text("kept for comparison: ").first.wait_for(timeout=10000)
+    assert not any("[computed_torque]" in label for label in legend_labels(page))   # nothing to compare yet
+    panel.configure("pd_gravity", reference="quintic by=0.3 T=0.4", mismatch="m2=3", duration=0.8)
+    run_in_page(page, panel, "pd_gravity", panel._runs)
+    wait_until(lambda: "τ_q1 [computed_torque]" in legend_labels(page), what="the kept run in the legend")
+    labels = legend_labels(page)
+    assert "e_q2 [computed_torque]" in labels and "τ_q1" in labels
+    torques = next(p for p in panel._plot_data if "τ_q1" in [s["label"] for s in p["handle"].series])
+    names = [s["label"] for s in torques["handle"].series]
+    x = np.asarray(torques["x"])
+    assert np.all(np.diff(x) > 0) and x[-1] == pytest.approx(0.8, abs=1e-9)      # the longer run's end
+    old = np.asarray(torques["columns"][names.index("τ_q1 [computed_torque]") - 1])
+    at = x <= 0.5
+    assert np.all(np.isnan(old[~at]))                                      # the kept run ended at 0.5 s
+    assert np.interp(0.3, x[at], old[at]) == pytest.approx(np.interp(0.3, kept.t, kept.tau[:, 0]),
+                                                           rel=1e-2, abs=1e-2)
+    page.get_by_role("button", name="Clear comparison").click()
+    wait_until(lambda: not any("[computed_torque]" in label for label in legend_labels(page)),
+               what="the kept curves to go")
+    assert panel.kept() is None and panel.result.controller == "pd_gravity"
 
 
-def test_the_plots_time_marker_follows_the_time_slider_and_the_replay(lab, browser):
+def test_the_plots_time_marker_follows_the_time_slider_and_the_replay(control_page):
     """Issue 12: a vertical line in every plot at the replay's time, moved by the Time slider and
     by Play (viser reports no click on a uPlot chart, so the slider drives both)."""
-    page, session = open_control(lab, browser)
-    try:
-        panel = session.state["control"]["panel"]
-        panel.configure("computed_torque", reference="quintic by=0.3 T=0.8", duration=1.0)
-        run_in_page(page, panel, "computed_torque", panel._runs)
-        wait_until(lambda: page.locator(".uplot").count() >= 2, what="the charts")
-        assert panel.marker_time() == pytest.approx(0.0, abs=1e-9)
-        assert "now" in legend_labels(page)
-        slider = page.locator(".mantine-Slider-thumb").last        # the Time slider (the last one)
-        slider.focus()
-        for _ in range(300):
-            slider.press("ArrowRight")
-        wait_until(lambda: panel.time.value > 0.2, what="the slider to move")
-        wait_until(lambda: abs(panel.marker_time() - panel.time.value) < 1e-9, what="the marker at the slider")
-        t = panel.time.value
-        res = panel.result
-        k = min(len(res.t) - 1, int(np.searchsorted(res.t, t)))
-        pose = session.scene.drawing.poses(res.q[k])["link2"]
-        wait_until(lambda: np.allclose(session.scene._frames["link2"].position, pose[:3, 3], atol=1e-6),
-                   what="the robot at the slider's time")
-        assert all(abs(panel.marker_time() - t) < 1e-9 for _ in panel._plot_data)
-        page.get_by_role("button", name="▶ Play").click()
-        wait_until(lambda: not panel._replay["playing"] and panel._replay["t"] > 0.99, what="the replay's end")
-        wait_until(lambda: panel.marker_time() == pytest.approx(1.0, abs=1e-6), what="the marker at the end")
-    finally:
-        page.context.close()
+    page, session, panel = fresh(control_page)
+    panel.configure("computed_torque", reference="quintic by=0.3 T=0.8", duration=1.0)
+    run_in_page(page, panel, "computed_torque", panel._runs)
+    wait_until(lambda: page.locator(".uplot").count() >= 2, what="the charts")
+    assert panel.marker_time() == pytest.approx(0.0, abs=1e-9)
+    assert "replay" in legend_labels(page)
+    thumb = shots.slider_thumb(page, "Time [s]")
+    thumb.scroll_into_view_if_needed()
+    track = page.locator("xpath=//label[normalize-space()='Time [s]']/ancestor::div"
+                         "[contains(@class,'mantine-Flex-root')][1]//*[contains(@class,'Slider-track')]").first
+    box = track.bounding_box()
+    page.mouse.click(box["x"] + 0.4 * box["width"], box["y"] + box["height"] / 2)    # a click on the track
+    wait_until(lambda: 0.3 < panel.time.value < 0.5, what="the slider to move")
+    wait_until(lambda: abs(panel.marker_time() - panel.time.value) < 1e-9, what="the marker at the slider")
+    t = panel.time.value
+    res = panel.result
+    k = min(len(res.t) - 1, int(np.searchsorted(res.t, t)))
+    pose = session.scene.drawing.poses(res.q[k])["link2"]
+    wait_until(lambda: np.allclose(session.scene._frames["link2"].position, pose[:3, 3], atol=1e-6),
+               what="the robot at the slider's time")
+    assert all(abs(panel.marker_time() - t) < 1e-9 for _ in panel._plot_data)
+    page.get_by_role("button", name="▶ Play").click()
+    wait_until(lambda: not panel._replay["playing"] and panel._replay["t"] > 0.99, what="the replay's end")
+    wait_until(lambda: panel.marker_time() == pytest.approx(1.0, abs=1e-6), what="the marker at the end")
 
 
-def test_a_short_run_reruns_by_itself_when_a_gain_changes(lab, browser):
+def test_a_short_run_reruns_by_itself_when_a_gain_changes(control_page):
     """Issue 12: a run of at most 2 s is run again after a gain is typed (debounced: one run for
     the whole typing, the older run replaced, never queued); a longer run is not."""
-    page, session = open_control(lab, browser)
-    try:
-        panel = session.state["control"]["panel"]
-        panel.configure("computed_torque", reference="quintic by=0.3 T=0.4", duration=0.5)
-        run_in_page(page, panel, "computed_torque", panel._runs)
-        runs = panel._runs
-        typed(page, "Gains", "Kp=64, Kd=16")
-        wait_until(lambda: panel.result.gains["Kp"][0] == pytest.approx(64.0, abs=1e-12), what="the re-run")
-        assert panel._runs == runs + 1                           # one run for the whole typing
-        assert "completed:" in panel.status.content
-        panel.duration.value = 3.0                             # longer than AUTO_RERUN_MAX: no re-run
-        typed(page, "Gains", "Kp=81")
-        wait_until(lambda: panel.gains.value == "Kp=81", what="the typed gain")
-        time.sleep(1.0)
-        assert panel._runs == runs + 1 and panel.result.gains["Kp"][0] == pytest.approx(64.0, abs=1e-12)
-    finally:
-        page.context.close()
+    page, session, panel = fresh(control_page)
+    panel.configure("computed_torque", reference="quintic by=0.3 T=0.4", duration=0.5)
+    run_in_page(page, panel, "computed_torque", panel._runs)
+    runs = panel._runs
+    typed(page, "Gains", "Kp=64")
+    wait_until(lambda: panel.result.gains["Kp"][0] == pytest.approx(64.0, abs=1e-12), what="the re-run")
+    assert panel._runs == runs + 1                           # one run for the whole typing
+    assert "completed:" in panel.status.content
+    panel.duration.value = 3.0                             # longer than AUTO_RERUN_MAX: no re-run
+    typed(page, "Gains", "Kp=81")
+    wait_until(lambda: panel.gains.value == "Kp=81", what="the typed gain")
+    time.sleep(AUTO_RERUN_DELAY + 0.4)
+    assert panel._runs == runs + 1 and panel.result.gains["Kp"][0] == pytest.approx(64.0, abs=1e-12)
+

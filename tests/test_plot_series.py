@@ -48,11 +48,12 @@ def test_time_marker_is_a_vertical_segment_at_the_time():
         x2, out = with_time_marker(x, cols, t, lo, hi)
         assert len(out) == 3 and all(len(c) == len(x2) == len(x) + 2 for c in out)
         assert np.all(np.diff(x2) >= 0)                             # still sorted for uPlot
-        marked = np.flatnonzero(np.isfinite(out[2]))
+        marked = np.flatnonzero(out[2] >= lo)
         assert len(marked) == 2 and x2[marked] == pytest.approx([min(t, 4.0)] * 2, abs=1e-12)
         assert out[2][marked] == pytest.approx([lo, hi], abs=1e-12)
-        assert np.all(np.isnan(out[0][marked])) and np.isfinite(out[0]).sum() == len(x)
-        keep = np.isfinite(out[0])
+        assert np.all(out[2][np.setdiff1d(np.arange(len(x2)), marked)] < lo - 100 * (hi - lo))   # off the plot
+        assert out[0][marked] == pytest.approx([np.sin(min(t, 4.0))] * 2, abs=1e-4)     # the curves go on
+        keep = np.setdiff1d(np.arange(len(x2)), marked)
         assert np.allclose(x2[keep], x, atol=0) and np.allclose(out[1][keep], cols[1], atol=0)
 
 

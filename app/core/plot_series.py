@@ -23,7 +23,7 @@ def sample_at(t: np.ndarray, values: np.ndarray, time: float) -> np.ndarray:
     """The run's values (one row per sample, or one column) linearly interpolated at ``time``,
     clamped to the run's ends.
 
-    >>> float(sample_at(np.array([0.0, 1.0]), np.array([0.0, 2.0]), 0.25))
+    >>> round(float(sample_at(np.array([0.0, 1.0]), np.array([0.0, 2.0]), 0.25)), 6)
     0.5
     """
     values = np.asarray(values, dtype=float)
@@ -48,8 +48,8 @@ def merge_runs(t_new: np.ndarray, new: Sequence[np.ndarray], t_old: np.ndarray, 
 
     >>> x, cols = merge_runs(np.array([0.0, 1.0, 2.0]), [np.array([0.0, 1.0, 2.0])],
     ...                      np.array([0.0, 0.5]), [np.array([5.0, 6.0])])
-    >>> x.tolist(), cols[0].tolist(), [None if np.isnan(v) else float(v) for v in cols[1]]
-    ([0.0, 0.5, 1.0, 2.0], [0.0, 0.5, 1.0, 2.0], [5.0, 6.0, None, None])
+    >>> [(np.round(c, 6) + 0.0).tolist() for c in (x, cols[0], cols[1])]
+    [[0.0, 0.5, 1.0, 2.0], [0.0, 0.5, 1.0, 2.0], [5.0, 6.0, nan, nan]]
     """
     x = np.union1d(np.asarray(t_new, dtype=float), np.asarray(t_old, dtype=float))
     return x, [resample(t_new, v, x) for v in new] + [resample(t_old, v, x) for v in old]
@@ -57,20 +57,26 @@ def merge_runs(t_new: np.ndarray, new: Sequence[np.ndarray], t_old: np.ndarray, 
 
 def with_time_marker(x: np.ndarray, columns: Sequence[np.ndarray], time: float, low: float, high: float
                      ) -> Tuple[np.ndarray, List[np.ndarray]]:
-    """A plot's data with a vertical line at ``time`` from ``low`` to ``high``: two samples at x =
-    time are inserted (where x stays sorted) and one more column, NaN except those two samples
-    (``low`` then ``high``); the other columns hold NaN there, so their lines run on unbroken.
+    """A plot's data with a vertical line at ``time`` from ``low`` to ``high`` (the plot's fixed
+    y range): two samples at x = time are inserted (where x stays sorted), holding the other
+    columns' values there, and one more column that is ``low`` then ``high`` at those samples and
+    far below the plot everywhere else (drawn outside the plot, so only the vertical line shows;
+    not NaN, which uPlot's pixel binning would let swallow the line).
 
     >>> x, cols = with_time_marker(np.array([0.0, 1.0]), [np.array([3.0, 4.0])], 0.5, -1.0, 1.0)
-    >>> x.tolist(), np.isnan(cols[0]).tolist(), np.isnan(cols[1]).tolist(), cols[1][1:3].tolist()
-    ([0.0, 0.5, 0.5, 1.0], [False, True, True, False], [True, False, False, True], [-1.0, 1.0])
+    >>> [(np.round(c, 6) + 0.0).tolist() for c in (x, cols[0], cols[1][1:3])], bool(max(cols[1][[0, 3]]) < -100)
+    ([[0.0, 0.5, 0.5, 1.0], [3.0, 3.5, 3.5, 4.0], [-1.0, 1.0]], True)
     """
     x = np.asarray(x, dtype=float)
     time = float(np.clip(time, x[0], x[-1])) if len(x) else float(time)
     k = int(np.searchsorted(x, time))
     x2 = np.insert(x, k, [time, time])
-    out = [np.insert(np.asarray(c, dtype=float), k, [np.nan, np.nan]) for c in columns]
-    marker = np.full(len(x2), np.nan)
+    out = []
+    for c in columns:
+        c = np.asarray(c, dtype=float)
+        v = float(np.interp(time, x, c)) if len(x) else np.nan
+        out.append(np.insert(c, k, [v, v]))
+    marker = np.full(len(x2), low - 1000.0 * (high - low))
     marker[k], marker[k + 1] = low, high
     return x2, out + [marker]
 
@@ -78,8 +84,8 @@ def with_time_marker(x: np.ndarray, columns: Sequence[np.ndarray], time: float, 
 def value_range(columns: Sequence[np.ndarray]) -> Tuple[float, float]:
     """The finite extremes of a plot's columns (a span of 1 around a constant, (-1, 1) for none).
 
-    >>> value_range([np.array([1.0, np.nan, 3.0]), np.array([-2.0])])
-    (-2.0, 3.0)
+    >>> [round(v, 6) for v in value_range([np.array([1.0, np.nan, 3.0]), np.array([-2.0])])]
+    [-2.0, 3.0]
     """
     finite = [c[np.isfinite(c)] for c in (np.asarray(c, dtype=float) for c in columns)]
     finite = [c for c in finite if c.size]

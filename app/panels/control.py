@@ -612,13 +612,15 @@ class ControlPanel:
                  **({"dash": [6, 4]} if dashed else {})} for label, _, dashed, ci in series]
         cfg += [{"label": f"{label} [{kept['name']}]", "stroke": COLORS[ci % len(COLORS)] + "88", "width": 1.5,
                  "dash": [2, 3]} for label, _, ci in extra]
-        cfg.append({"label": "now", "stroke": "#444444", "width": 1.0, "points": {"show": False}})
+        cfg.append({"label": "replay", "stroke": "#555555", "width": 1.0, "points": {"show": False}})
         low, high = value_range(columns)
+        pad = 0.05 * (high - low)
+        low, high = low - pad, high + pad      # a fixed y range: uPlot's autoscale does not skip NaN
         with self._replay_lock:
             t = self._replay["t"]
         x2, data = with_time_marker(x, columns, t, low, high)
         handle = self.gui.add_uplot(data=(x2, *data), series=tuple(cfg), title=title, aspect=1.6,
-                                    scales={"x": {"time": False}},
+                                    scales={"x": {"time": False}, "y": {"range": [low, high]}},
                                     axes=({"label": "t [s]", "size": 36}, {"size": 52}),
                                     cursor={"drag": {"x": True, "y": False}})
         self._plot_data.append({"handle": handle, "x": x, "columns": columns, "span": (low, high)})
@@ -661,7 +663,7 @@ class ControlPanel:
             return None
         marker = np.asarray(self._plot_data[0]["handle"].data[-1])
         x = np.asarray(self._plot_data[0]["handle"].data[0])
-        return float(x[np.isfinite(marker)][0])
+        return float(x[marker >= self._plot_data[0]["span"][0]][0])
 
     def _draw_paths(self) -> None:
         """The run's fixed overlays: reference and actual paths of a task point, the surfaces."""
@@ -817,18 +819,32 @@ DOC_SHOTS = {
     "planar_2r_adaptive.png": ("planar_2r", dict(controller="adaptive", mismatch="m2=3, I2=0.15",
                                                  reference="sine amplitude=0.6,0.8 f=0.5,0.35", duration=10),
                                0.45, 760, 1060),
+    # the plots of an adaptive run beside a kept computed-torque run with the same mismatch, and
+    # the grey time marker at the replay's time
+    "planar_2r_comparison.png": ("planar_2r", dict(controller="adaptive", mismatch="m2=3, I2=0.15",
+                                                   reference="sine amplitude=0.6,0.8 f=0.5,0.35", duration=6,
+                                                   compare_with=dict(controller="computed_torque")),
+                                 2.3, 560, 1000),
 }
 
 
 def save_screenshot(out, robot: str, settings: Dict, t_show: float, scroll: int, lab=None, browser=None,
                     height: int = 900, q=None):
     """Run a controller in the page from q (default 0) and save the robot (at ``t_show``, with the
-    reference ghost) and the plots (the panel scrolled by ``scroll`` pixels) as a PNG."""
+    reference ghost) and the plots (the panel scrolled by ``scroll`` pixels) as a PNG. A
+    ``compare_with`` entry of ``settings`` (fields that differ) runs first and is kept for comparison."""
     from app.viewer.screenshot import capture
+
+    settings = dict(settings)
+    compare_with = settings.pop("compare_with", None)
 
     def setup(session):
         session.set_q(np.zeros(session.robot.n) if q is None else q)
         panel = session.state["control"]["panel"]
+        if compare_with is not None:        # a first run kept for comparison: the same fields but these
+            panel.configure(**{**settings, **compare_with})
+            panel.run(wait=True)
+            panel.keep_for_comparison()
         panel.configure(**settings)
         panel.run(wait=True)
         panel.show_time(t_show)
