@@ -282,3 +282,38 @@ def test_a_variant_is_solved_and_a_bad_value_is_refused(lab, browser):
         assert f"<mn>{num(abs(expected[2]))}</mn>" in card.inner_html()
     finally:
         page.context.close()
+
+
+def test_exam_sheet_button_offers_the_sheet_as_downloads(lab, browser):
+    """Issue 12: "Exam sheet" makes the sheet of the typed exercises (or of the one shown) in the
+    background and offers exam.html and solutions.html (the PDFs, which start a Chromium in the
+    server, are left to tests/test_sheet.py); nothing chosen or an unknown id is refused."""
+    page, session = shots.open_tab(lab, browser, "planar_2r", tab="Exercises", height=900, hide=False)
+    try:
+        panel = session.state["exercises"]["panel"]
+        page.get_by_text("Printable exam sheet").click()
+        page.get_by_role("button", name="Exam sheet", exact=True).wait_for(state="visible")
+        click(page, "Exam sheet")                                       # no exercise shown, none typed
+        wait_until(lambda: "open an exercise or type exercise ids first" in panel.sheet_status.content,
+                   timeout=10, what=f"the refusal (status: {panel.sheet_status.content!r})")
+        typed(page, "Exercises", "2022-07-08#3, nope#9")
+        wait_until(lambda: panel.sheet_ids.value == "2022-07-08#3, nope#9", what="the typed ids")
+        click(page, "Exam sheet")
+        page.get_by_text("unknown exercise(s): nope#9").first.wait_for(timeout=10000)
+        assert panel.state.get("sheet_files") is None and not panel.sheet_button.disabled
+        typed(page, "Exercises", "2022-07-08#3")
+        panel.sheet_pdf.value = False
+        wait_until(lambda: panel.sheet_ids.value == "2022-07-08#3", what="the typed id")
+        click(page, "Exam sheet")
+        page.get_by_role("button", name="exam.html", exact=True).wait_for(timeout=60000)
+        files = panel.state["sheet_files"]
+        assert sorted(files) == ["exam.html", "solutions.html"]
+        page.get_by_text("(PDF not asked for)").first.wait_for(timeout=5000)
+        with page.expect_download() as download:
+            click(page, "exam.html")
+        assert download.value.suggested_filename == "sheet_2022-07-08-3_exam.html"
+        text = open(download.value.path(), encoding="utf-8").read()
+        assert "2022-07-08#3" in text and text.count("class='r2-sheet-exercise'") == 1
+        assert not panel.sheet_button.disabled and panel.exercise is None
+    finally:
+        page.context.close()

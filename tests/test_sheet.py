@@ -69,3 +69,22 @@ def test_pdfs_have_one_exercise_per_page(sheet, tmp_path, browser):
     assert pdf_page_count(tmp_path / "exam.pdf") == len(EXERCISES)
     assert pdf_page_count(tmp_path / "solutions.pdf") >= len(EXERCISES)
     assert (tmp_path / "exam.pdf").read_bytes().startswith(b"%PDF")
+
+
+def test_sheet_files_for_the_exercises_tab(browser):
+    """The Exercises tab's "Exam sheet" files (app/viewer/sheets.py sheet_files): the same sheet as
+    the command line's, with PDFs when a Chromium is at hand; an unknown exercise is one clear error."""
+    from app.core.errors import UserError
+    from app.core.sheet import make_sheet
+    from app.viewer.sheets import exam_html, sheet_files
+    seen = []
+    files, note = sheet_files(["2022-07-08#3"], seed=4, pdf=False, progress=lambda f, m: seen.append(f))
+    assert sorted(files) == ["exam.html", "solutions.html"] and note == "PDF not asked for"
+    assert files["exam.html"].decode("utf-8") == exam_html(make_sheet(["2022-07-08#3"], seed=4))
+    assert seen and all(0.0 <= f <= 1.0 for f in seen)
+    files, note = sheet_files(["2022-07-08#3"], seed=4, browser=browser)
+    assert note == "" and files["solutions.pdf"].startswith(b"%PDF") and len(files["exam.pdf"]) > 1000
+    with pytest.raises(UserError, match="nope#9"):
+        sheet_files(["nope#9"])
+    with pytest.raises(UserError, match="no exercise chosen"):
+        sheet_files([])

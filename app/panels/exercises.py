@@ -156,6 +156,19 @@ class ExercisesPanel:
                                        hint="steps and answers as Markdown with LaTeX ($$ ... $$)")
         self.download_tex = gui.add_button("Download the solution (LaTeX)", disabled=True,
                                            hint="steps as a .tex fragment (amsmath)")
+        self.sheet_folder = gui.add_folder("Printable exam sheet", expand_by_default=False)
+        with self.sheet_folder:
+            gui.add_html(mathml.label_html(
+                "A printable sheet of the exercise(s) with new numbers (each variant re-solved) and its "
+                "solutions, as HTML and PDF (python -m app sheet)."))
+            self.sheet_ids = gui.add_text("Exercises", "", hint="exercise ids separated by commas, e.g. "
+                                                                "2009-09-10#2, 2020-06-05#1; empty: the one shown")
+            self.sheet_seed = gui.add_number("Seed", 0, min=0, max=10 ** 6, step=1,
+                                             hint="the same seed gives the same numbers")
+            self.sheet_pdf = gui.add_checkbox("PDF too", True, hint="print PDFs with headless Chromium (slower)")
+            self.sheet_button = gui.add_button("Exam sheet", hint="make the sheet (in the background)")
+            self.sheet_status = gui.add_html("")
+        self._sheet_downloads = None
         self._earlier_html = gui.add_html("")
 
         for dropdown, key in ((self.exam, "exam"), (self.topic, "topic"), (self.robot, "robot")):
@@ -166,6 +179,7 @@ class ExercisesPanel:
         self.download.on_click(self._download)
         self.download_tex.on_click(self._download_tex)
         self.back_button.on_click(lambda _: self._ensure_robot())
+        self.sheet_button.on_click(lambda _: self.make_sheet())
         self._render()
 
     def _options(self) -> List[str]:
@@ -519,6 +533,53 @@ class ExercisesPanel:
         variant = {key.split(":", 1)[1]: format_value(v) for key, v in solved.items()}
         event.client.send_file_download(f"{self._stem()}.tex", solution_tex(self.solution, variant).encode("utf-8"),
                                         save_immediately=True)
+
+
+    # -------------------------------------------------------------- exam sheet
+    def make_sheet(self, wait: bool = False):
+        """Make the exam sheet of the typed exercises (or the one shown) in the background, then
+        offer its files as downloads (app/viewer/sheets.py ``sheet_files``)."""
+        from app.viewer.sheets import parse_exercise_ids, sheet_files
+        ids = parse_exercise_ids(self.sheet_ids.value, [self.exercise.id] if self.exercise is not None else [])
+        known = {ex.id for ex in self.exercises}
+        unknown = [i for i in ids if i not in known]
+        if not ids or unknown:
+            text = (f"unknown exercise(s): {', '.join(unknown)}" if unknown
+                    else "open an exercise or type exercise ids first")
+            self.sheet_status.content = _message(text, error=True)
+            self.session.notify("Exam sheet", text, error=True)
+            return None
+        seed, pdf = int(self.sheet_seed.value), bool(self.sheet_pdf.value)
+        self.sheet_button.disabled = True
+        self.sheet_status.content = _message(f"making the sheet of {', '.join(ids)} ...")
+        self.state["sheet_files"] = None
+
+        def work(progress):
+            try:
+                return sheet_files(ids, seed, pdf=pdf, progress=progress)
+            finally:
+                self.sheet_button.disabled = False
+
+        def done(result):
+            files, note = result
+            if not self._alive():
+                return
+            self.state["sheet_files"] = files
+            stem = "sheet_" + "_".join(i.replace("#", "-") for i in ids[:3]) + ("_etc" if len(ids) > 3 else "")
+            if self._sheet_downloads is not None:
+                self._sheet_downloads.remove()
+            with self.sheet_folder:
+                self._sheet_downloads = self.gui.add_button_group("Download", tuple(files))
+            self._sheet_downloads.on_click(
+                lambda event: event.client.send_file_download(f"{stem}_{event.target.value}",
+                                                              files[event.target.value], save_immediately=True))
+            self.sheet_status.content = _message(f"sheet of {', '.join(ids)}, seed {seed}: "
+                                                 + ", ".join(files) + (f" ({note})" if note else ""))
+
+        future = self.session.run_in_background(work, "Exam sheet", on_done=done)
+        if wait:
+            future.result()
+        return future
 
 
 def _valid(value: str, options: List[str]) -> str:

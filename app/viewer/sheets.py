@@ -15,11 +15,12 @@ from __future__ import annotations
 
 import html
 from pathlib import Path
-from typing import List
+from typing import Dict, List, Sequence, Tuple
 
 import numpy as np
 import sympy as sp
 
+from app.core.errors import UserError
 from app.core.latex import num
 from app.core.steps import to_latex
 from app.viewer import mathml
@@ -257,6 +258,53 @@ def write_sheet(sheet, out_dir: str | Path, pdf: bool = True, browser=None) -> L
             paths += [print_pdf(doc, out_dir / f"{name}.pdf", own) for name, doc in docs.items()]
     return paths
 
+
+
+def parse_exercise_ids(text: str, default: Sequence[str] = ()) -> List[str]:
+    """Exercise ids typed in a field (separated by commas or spaces); ``default`` when empty.
+
+    >>> parse_exercise_ids("2009-09-10#2, 2020-06-05#1 2009-09-10#2")
+    ['2009-09-10#2', '2020-06-05#1']
+    >>> parse_exercise_ids("  ", ["2004-03-25#1"])
+    ['2004-03-25#1']
+    """
+    import re
+    ids = list(dict.fromkeys(t for t in re.split(r"[,\s]+", text or "") if t))
+    return ids or list(default)
+
+
+def sheet_files(exercise_ids: Sequence[str], seed: int = 0, pdf: bool = True, progress=None,
+                browser=None) -> Tuple[Dict[str, bytes], str]:
+    """The exam sheet of the exercises (``make_sheet``) as files for a download: exam.html and
+    solutions.html, and exam.pdf and solutions.pdf when ``pdf`` and a headless Chromium can be
+    started (``browser`` or one of its own). Returns (name -> bytes, a note saying why there is no
+    PDF, or ""). Raises UserError for an unknown exercise."""
+    import tempfile
+
+    from app.core.sheet import make_sheet
+    if not exercise_ids:
+        raise UserError("exam sheet: no exercise chosen (open one, or type exercise ids)")
+    sheet = make_sheet(list(exercise_ids), seed=int(seed),
+                       progress=(lambda f, m: progress(0.8 * f, f"solving a variant of {m}")) if progress else None)
+    docs = {"exam": exam_html(sheet), "solutions": solutions_html(sheet)}
+    files = {f"{name}.html": doc.encode("utf-8") for name, doc in docs.items()}
+    if not pdf:
+        return files, "PDF not asked for"
+    if progress:
+        progress(0.85, "printing the PDFs")
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            if browser is None:
+                from app.viewer.screenshot import Browser
+                with Browser() as own:
+                    paths = {name: print_pdf(doc, Path(tmp) / f"{name}.pdf", own) for name, doc in docs.items()}
+            else:
+                paths = {name: print_pdf(doc, Path(tmp) / f"{name}.pdf", browser) for name, doc in docs.items()}
+            files.update({f"{name}.pdf": path.read_bytes() for name, path in paths.items()})
+    except Exception as exc:         # no Chromium (or Playwright) here: the HTML prints from a browser
+        first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+        return files, f"no PDF ({first[:160]}): print the HTML from your browser"
+    return files, ""
 
 
 #: the sheet and the check-answer diagnoses pictured in the docs (docs/cli.md, docs/panels.md)
