@@ -818,7 +818,7 @@ DOC_SHOTS = {
                                       2.3, 520, 900),
     "planar_2r_adaptive.png": ("planar_2r", dict(controller="adaptive", mismatch="m2=3, I2=0.15",
                                                  reference="sine amplitude=0.6,0.8 f=0.5,0.35", duration=10),
-                               0.45, 760, 1060),
+                               0.45, 880, 1060),
     # the plots of an adaptive run beside a kept computed-torque run with the same mismatch, and
     # the grey time marker at the replay's time
     "planar_2r_comparison.png": ("planar_2r", dict(controller="adaptive", mismatch="m2=3, I2=0.15",
