@@ -55,6 +55,9 @@ def add_arguments(p):
     p.add_argument("--camera-noise", type=float, default=None,
                    help="with --catch: standard deviation of the camera's ball positions [m] (default 0.005)")
     p.add_argument("--camera-rate", type=float, default=None, help="with --catch: pictures per second (default 100)")
+    p.add_argument("--catcher", choices=("full", "kinematic"), default="full",
+                   help="with --catch: the catching arm simulated in its full dynamics under computed torque "
+                        "(default) or following its planned motion exactly (kinematic, as in the coursework)")
     p.add_argument("--monte-carlo", type=int, metavar="N",
                    help="with --closed-loop: N plants drawn from the plant file's uncertainty ranges (seed: --seed)")
 
@@ -216,16 +219,32 @@ def _catch(args, throw, plant, names) -> dict:
         raise UserError("--catch needs one controller (--closed-loop open, vhc or transverse)")
     noise = CAMERA_NOISE if args.camera_noise is None else args.camera_noise
     rate = CAMERA_RATE if args.camera_rate is None else args.camera_rate
-    r = throw_and_catch(throw, plant, names[0], rate=rate, noise=noise, seed=args.seed)
+    r = throw_and_catch(throw, plant, names[0], rate=rate, noise=noise, seed=args.seed, catcher_mode=args.catcher)
     vec = lambda a: None if a is None else _floats(a)
+    run = r.run
     out = {"controller": r.controller, "success": r.success, "miss": r.miss if r.catch_time is not None else None,
            "message": r.message, "catch_time": r.catch_time, "catch_point": vec(r.catch_point), "hand": vec(r.hand),
            "ball": vec(r.ball), "catcher_base": [r.base_x, 0.0], "camera_rate": rate, "camera_noise": noise,
            "camera_pictures": int(r.camera_times.size), "release_position": vec(r.release_position),
-           "release_velocity": vec(r.release_velocity), "estimated_release_velocity": vec(r.estimate.v0)}
+           "release_velocity": vec(r.release_velocity), "estimated_release_velocity": vec(r.estimate.v0),
+           "catcher": r.catcher, "q_catch_planned": vec(r.q_catch), "q_catch": vec(r.q_end),
+           "catcher_tracking_error": None if run is None else run.tracking_error,
+           "catcher_hand_tracking_error": None if run is None else run.hand_tracking_error,
+           "catcher_max_torque": None if run is None else _floats(run.max_torque),
+           "catcher_torque_limits": None if run is None or run.torque_limits is None else _floats(run.torque_limits),
+           "catcher_saturated": None if run is None else run.saturated,
+           "catcher_energy_error": None if run is None else run.energy_error,
+           "catcher_position_violation": None if run is None else run.position_violation}
     if not args.json:
         print(f"plant: {plant.title}; thrown with {r.controller}, camera {rate:g} pictures/s, noise {1e3 * noise:g} mm")
         print(f"  {r.message}" + (f" at t = {r.catch_time:.3f} s after the release" if r.catch_time else ""))
+        if run is not None:
+            print(f"  catching arm in full dynamics (computed torque): tracking error <= {1e3 * run.tracking_error:.2f} mrad "
+                  f"({1e3 * run.hand_tracking_error:.2f} mm at the hand), max |tau| "
+                  + " ".join(f"{x:.1f}" for x in run.max_torque) + " N m"
+                  + ("; torques saturated" if run.saturated else ""))
+        elif r.catch_time is not None:
+            print("  catching arm kinematic: it follows its planned motion exactly")
     return out
 
 

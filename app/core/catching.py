@@ -37,6 +37,7 @@ import sympy as sp
 from .errors import UserError
 from .planning import TimingLaw, synchronized_trapezoids
 from .robot import RobotModel, load_robot
+from .trajectories import Reference
 
 #: the coursework's trapezoid: Ts/T minimizing |theta''_max| T/2 + |theta'_max| (= (sqrt(3) - 1)/2)
 WEIGHTED_RATIO = (math.sqrt(3.0) - 1.0) / 2.0
@@ -56,6 +57,7 @@ class CatchingArm:
     def __init__(self, robot: RobotModel | str = "catching_arm", params: Optional[Dict[str, float]] = None):
         self.robot = load_robot(robot) if isinstance(robot, str) else robot
         values = self.robot.parameter_values(params)
+        self.values = dict(values)
         self.L = np.array([values["L1"], values["L2"], values["L3"]], float)
         lims = [self.robot.limits[c].position for c in self.robot.coordinates]
         self.lower = np.array([l[0] for l in lims], float)
@@ -393,6 +395,99 @@ def _closest_solution(arm: CatchingArm, point, family, q_start, norm: str = "l1"
     res = minimize_scalar(cost, bounds=(lo, hi), method="bounded", options={"xatol": 1e-12})
     phi = float(res.x) if np.isfinite(res.fun) and res.fun <= best[0] else float(branch[0, k])
     return arm.ik(point, phi, elbow), phi
+
+
+# ====================================================================== the catch in full dynamics
+#: computed-torque gains of the catcher: e'' + Kd e' + Kp e = 0 with a double pole at -40 rad/s
+CATCH_KP = 1600.0
+CATCH_KD = 80.0
+CATCH_RATE = 1000.0
+
+
+class PlanReference(Reference):
+    """The catch plan's joint motion as a reference of the closed-loop simulation: q_d, q_d', q_d''
+    of the synchronized trapezoids."""
+    kind = "catch_plan"
+
+    def __init__(self, plan: CatchPlan):
+        super().__init__(len(plan.laws))
+        self.plan = plan
+        self.motion_time = plan.time
+
+    def sample(self, t):
+        t = np.atleast_1d(np.asarray(t, float))
+        rows = [law(t) for law in self.plan.laws]
+        q = np.stack([q0 + r[0] for q0, r in zip(self.plan.q_start, rows)], axis=1)
+        return q, np.stack([r[1] for r in rows], axis=1), np.stack([r[2] for r in rows], axis=1)
+
+    def describe(self) -> str:
+        return (f"catch plan: trapezoids (Ts/T = {self.plan.ratio:.4g}) from "
+                + ",".join(f"{v:.6g}" for v in self.plan.q_start) + " to "
+                + ",".join(f"{v:.6g}" for v in self.plan.q_catch) + f" in {self.plan.time:.6g} s")
+
+
+@dataclass
+class CatchRun:
+    """The catching arm moved in full dynamics along a catch plan (times from the start of the motion)."""
+    t: np.ndarray                      # (k,) control instants, the last one the catch time
+    q: np.ndarray                      # (k, 3)
+    dq: np.ndarray                     # (k, 3)
+    tau: np.ndarray                    # (k, 3) applied torques (after saturation), held over each period
+    q_end: np.ndarray                  # joints at the catch time
+    hand: np.ndarray                   # hand at the catch time (arm base frame)
+    tracking_error: float              # max |q_d - q| over the motion and the joints [rad]
+    hand_tracking_error: float         # max |p(q_d) - p(q)| over the motion [m]
+    max_torque: np.ndarray             # (3,) max |tau_i| [N m]
+    torque_limits: Optional[np.ndarray]    # (3,) from the robot file (None: it has none)
+    saturated: bool                    # a torque reached its limit
+    energy_error: float                # |E(end) - E(start) - sum tau_k . (q_k+1 - q_k)| [J] (the integrator's error)
+    work: float                        # sum tau_k . (q_k+1 - q_k) [J]
+    position_violation: bool           # a joint left its position range by more than 1e-6 rad
+    message: str                       # why the simulation stopped early ('' when it reached the catch time)
+
+
+def simulate_catch(arm: CatchingArm, plan: CatchPlan, rate: float = CATCH_RATE, kp: float = CATCH_KP,
+                   kd: float = CATCH_KD, plant_params: Optional[Dict[str, float]] = None,
+                   torque_limits=None) -> CatchRun:
+    """Move the catching arm along ``plan`` in full dynamics: the robot file's model (derived by the
+    engine, evaluated by ``NumericModel``) integrated with RK4, under computed torque
+    tau = M(q)(q_d'' + Kd e' + Kp e) + C(q, q') q' + g(q) at ``rate`` Hz (zero-order hold; the rate
+    raised to the next whole number of periods in the motion, so that the run ends at the catch time), torques clipped to the robot
+    file's torque limits (or ``torque_limits``) when there are any. The controller's model has the
+    arm's parameters, the simulated arm ``plant_params`` on top of them (model mismatch)."""
+    from .sim import simulate
+    from .numeric import NumericModel
+    if not rate > 0 or not math.isfinite(rate):
+        raise UserError(f"the catcher's control rate must be a positive number of Hz, got {rate}")
+    robot = arm.robot
+    T = float(plan.time)
+    steps = max(1, int(math.ceil(T * rate - 1e-9)))
+    if torque_limits is None:
+        lims = [robot.limits[c].torque if c in robot.limits and robot.limits[c].torque else None
+                for c in robot.coordinates]
+        torque_limits = None if all(v is None for v in lims) else [math.inf if v is None else v for v in lims]
+    bounds = None if torque_limits is None else np.broadcast_to(np.asarray(torque_limits, float), (robot.n,)).copy()
+    sat = None if bounds is None else np.where(np.isfinite(bounds), bounds, 1e12)
+    plant = {**arm.values, **(plant_params or {})}
+    run = simulate(robot, "computed_torque", PlanReference(plan), duration=T, rate=steps / T,
+                   q0=plan.q_start, dq0=np.zeros(robot.n), gains={"Kp": kp, "Kd": kd},
+                   model_params=arm.values, plant_params=plant, saturation=sat, stop_at_limits=False)
+    q, dq, tau = run.q, run.dq, run.tau
+    err = run.ref - q
+    hand_d = arm.forward(run.ref.T)
+    hand = arm.forward(q.T)
+    num = NumericModel(robot, plant)
+    work = float(np.sum(tau[:-1] * np.diff(q, axis=0)))
+    e0, e1 = sum(num.energy(q[0], dq[0])), sum(num.energy(q[-1], dq[-1]))
+    outside = np.any((q < arm.lower - 1e-6) | (q > arm.upper + 1e-6))
+    max_tau = np.abs(tau).max(axis=0)
+    return CatchRun(t=run.t, q=q, dq=dq, tau=tau, q_end=q[-1].copy(), hand=hand[:, -1].copy(),
+                    tracking_error=float(np.abs(err).max()),
+                    hand_tracking_error=float(np.linalg.norm(hand - hand_d, axis=0).max()),
+                    max_torque=max_tau, torque_limits=bounds,
+                    saturated=bool(bounds is not None and np.any(max_tau >= bounds * (1 - 1e-12))),
+                    energy_error=float(abs(e1 - e0 - work)), work=work, position_violation=bool(outside),
+                    message=run.message)
 
 
 # ====================================================================== the scene

@@ -11,8 +11,12 @@ estimate, never from the true release state, and moves there.
   to the measurements (the estimate a Kalman filter of this model without process noise converges to).
 - Catch: at the end of the observation the arm starts from its rest pose and moves with the
   coursework's synchronized trapezoids to the interception point of the *estimated* flight (the
-  middle of its stay in the reachable region, ``catching.plan_catch``); the arm follows its joint
-  motion exactly (kinematic control, as in the coursework).
+  middle of its stay in the reachable region, ``catching.plan_catch``).
+- The catcher's motion (``catcher``): ``"full"`` (the default) simulates the catching arm in its own
+  full dynamics (its robot file's model derived by the engine, RK4) under computed torque + PD along
+  the planned joint motion at 1 kHz, torques clipped to the file's torque limits when it has any
+  (``catching.simulate_catch``); ``"kinematic"`` lets the arm follow the planned motion exactly, as in
+  the coursework (for comparison).
 - Outcome: the distance between the hand and the *true* ball at the planned catch time; the catch
   succeeds when it is below the cup's radius ``cup`` [m].
 
@@ -28,7 +32,7 @@ from typing import Optional
 
 import numpy as np
 
-from .catching import BallFlight, CatchError, CatchingArm, plan_catch
+from .catching import BallFlight, CatchError, CatchingArm, CatchRun, plan_catch, simulate_catch
 from .errors import UserError
 from .throw_control import Plant, simulate_closed_loop
 from .vhc import Throw
@@ -39,6 +43,8 @@ CAMERA_NOISE = 0.005
 OBSERVE = 0.15
 CUP = 0.05
 REST_POSE = np.radians([30.0, 120.0, 80.0])
+#: how the catching arm moves: its own full dynamics under computed torque, or its planned motion exactly
+CATCHER_MODES = ("full", "kinematic")
 
 
 @dataclass
@@ -81,18 +87,26 @@ class ThrowAndCatch:
     success: bool
     message: str
     q_start: np.ndarray
-    q_catch: Optional[np.ndarray]
+    q_catch: Optional[np.ndarray]     # planned joints at the catch
     plan: object = None               # catching.CatchPlan (joint motion from the start of the catch)
+    catcher: str = "full"             # "full" (simulated in its dynamics) or "kinematic"
+    run: Optional[CatchRun] = None    # the catcher's simulation (catcher "full" and a catch planned)
+    q_end: Optional[np.ndarray] = None    # the catcher's joints at the catch time (simulated or planned)
 
 
 def throw_and_catch(throw: Throw, plant: Optional[Plant] = None, controller: str = "transverse",
                     rate: float = CAMERA_RATE, noise: float = CAMERA_NOISE, observe: float = OBSERVE,
                     cup: float = CUP, base_x: Optional[float] = None, seed: int = 0,
-                    catcher: Optional[CatchingArm] = None, release=None) -> ThrowAndCatch:
+                    catcher: Optional[CatchingArm] = None, release=None, catcher_mode: str = "full",
+                    catcher_plant: Optional[dict] = None) -> ThrowAndCatch:
     """Throw ``throw`` on ``plant`` under ``controller`` (full dynamics), watch the ball with a noisy
     camera, estimate its flight and catch it with the catching arm (see the module's docstring).
 
-    ``release`` = (position, velocity, time) skips the throw's simulation (a release computed before)."""
+    ``release`` = (position, velocity, time) skips the throw's simulation (a release computed before).
+    ``catcher_mode``: ``"full"`` or ``"kinematic"``; ``catcher_plant``: parameter values of the
+    simulated catching arm that differ from its controller's model (full mode only)."""
+    if catcher_mode not in CATCHER_MODES:
+        raise UserError(f"unknown catcher mode '{catcher_mode}' (full or kinematic)")
     if not rate > 0 or not observe > 0 or noise < 0 or not cup > 0:
         raise UserError("the camera rate, the observation time and the cup radius must be positive, the noise >= 0")
     catcher = catcher or CatchingArm()
@@ -118,36 +132,48 @@ def throw_and_catch(throw: Throw, plant: Optional[Plant] = None, controller: str
     v_start = est.v0 + np.array([0.0, -g * t_start])
     seen = BallFlight.from_release(p_start, v_start, g, origin=(base_x, 0.0))
     common = dict(controller=controller, release_time=t_release, release_position=pos, release_velocity=vel,
-                  estimate=est, base_x=base_x, camera_times=times, camera_positions=measured, q_start=REST_POSE)
+                  estimate=est, base_x=base_x, camera_times=times, camera_positions=measured, q_start=REST_POSE,
+                  catcher=catcher_mode)
     try:
         plan = plan_catch(catcher, seen, REST_POSE)
     except CatchError as exc:
         return ThrowAndCatch(**common, catch_time=None, catch_point=None, hand=None, ball=None, miss=math.inf,
                              success=False, message=f"no catch: {exc}", q_catch=None)
     t_catch = t_start + plan.time
-    hand = catcher.forward(plan.q_catch) + np.array([base_x, 0.0])
+    run = None
+    q_end = plan.q_catch
+    if catcher_mode == "full":
+        run = simulate_catch(catcher, plan, plant_params=catcher_plant)
+        q_end = run.q_end
+    hand = catcher.forward(q_end) + np.array([base_x, 0.0])
     ball = truth.position(t_catch)
     miss = float(np.hypot(*(hand - ball)))
-    ok = miss <= cup
+    ok = miss <= cup and (run is None or not run.message)
     message = (f"caught: the hand is {1e3 * miss:.1f} mm from the ball" if ok else
                f"missed by {1e3 * miss:.1f} mm (cup radius {1e3 * cup:.0f} mm)")
+    if run is not None and run.message:
+        message = f"missed: the catching arm's simulation stopped ({run.message})"
     return ThrowAndCatch(**common, catch_time=t_catch, catch_point=plan.point + np.array([base_x, 0.0]), hand=hand,
-                         ball=ball, miss=miss, success=ok, message=message, q_catch=plan.q_catch, plan=plan)
+                         ball=ball, miss=miss, success=ok, message=message, q_catch=plan.q_catch, plan=plan,
+                         run=run, q_end=q_end)
 
 
 def success_rate(throw: Throw, seeds: int = 200, plant: Optional[Plant] = None, controller: str = "transverse",
                  release=None, **kwargs) -> dict:
     """Catches over camera-noise seeds 0 .. seeds - 1 of one throw (simulated once, or ``release`` given):
-    success rate and misses."""
+    success rate and misses (and, with the catcher in full dynamics, its largest tracking errors)."""
     catcher = kwargs.pop("catcher", None) or CatchingArm()
     first = throw_and_catch(throw, plant, controller, seed=0, catcher=catcher, release=release, **kwargs)
     release = (first.release_position, first.release_velocity, first.release_time)
-    misses = [first.miss] + [throw_and_catch(throw, plant, controller, seed=s, catcher=catcher, release=release,
-                                             **kwargs).miss for s in range(1, seeds)]
-    misses = np.array(misses)
+    runs = [first] + [throw_and_catch(throw, plant, controller, seed=s, catcher=catcher, release=release, **kwargs)
+                      for s in range(1, seeds)]
+    misses = np.array([r.miss for r in runs])
+    sims = [r.run for r in runs if r.run is not None]
     cup = kwargs.get("cup", CUP)
     finite = misses[np.isfinite(misses)]
     return {"seeds": seeds, "success_rate": float(np.mean(misses <= cup)),
             "miss_median": float(np.median(finite)) if finite.size else None,
             "miss_95": float(np.quantile(finite, 0.95)) if finite.size else None,
-            "planned": int(finite.size)}
+            "planned": int(finite.size), "catcher": first.catcher,
+            "tracking_error_max": max((r.tracking_error for r in sims), default=None),
+            "hand_tracking_error_max": max((r.hand_tracking_error for r in sims), default=None)}

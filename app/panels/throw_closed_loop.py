@@ -156,7 +156,8 @@ class ClosedLoopTab:
         gui.add_html(f'<div class="r2-label" style="font-size:0.8em;color:#444;{BLOCK}"><b>Throw and catch.</b> The '
                      'catching arm (coursework 4M20) stands 0.5 m beyond the planned landing point and catches the '
                      'ball, planned from a camera\'s noisy pictures of the flight (least-squares estimate), not from '
-                     'the release state. The throw uses the plant above (its nominal values).</div>')
+                     'the release state, and moves in its own full dynamics under computed torque. The throw uses the plant '
+                     'above (its nominal values).</div>')
         self.catch_controller = gui.add_dropdown("Thrower", list(CONTROLLERS), initial_value="transverse",
                                                  hint="the throwing arm's controller")
         self.camera_rate = gui.add_slider("Camera [pictures/s]", min=10.0, max=500.0, step=10.0,
@@ -250,6 +251,10 @@ class ClosedLoopTab:
         detail = (f" at {r.catch_time:.3f} s after the release; {r.camera_times.size} pictures, "
                   f"estimated release speed {np.hypot(*r.estimate.v0):.3f} m/s (true {np.hypot(*r.release_velocity):.3f})"
                   if r.catch_time is not None else "")
+        if r.run is not None:
+            detail += (f"; catching arm in full dynamics (computed torque), tracking error "
+                       f"{1e3 * r.run.hand_tracking_error:.2f} mm at the hand, max |tau| "
+                       + " ".join(f"{x:.0f}" for x in r.run.max_torque) + " N m")
         self.catch_result.content = (f'<div class="r2-catch-result" data-success="{str(r.success).lower()}" '
                                      f'style="font-size:0.85em;color:{color};{BLOCK}"><b>{html.escape(r.message)}</b>'
                                      f'{html.escape(detail)}</div>')
@@ -264,7 +269,7 @@ class ClosedLoopTab:
             nodes.remove("catch_ball")
             return
         from app.core.catching import CatchingArm
-        arm_points = CatchingArm().joints(r.q_catch) + base
+        arm_points = CatchingArm().joints(r.q_catch if r.q_end is None else r.q_end) + base
         nodes.polyline("catch_arm", arm_points, (40, 40, 40), width=5.0)
         nodes.sphere("catch_point", r.hand, 0.05, (30, 123, 52) if r.success else (179, 38, 30))
         nodes.sphere("catch_ball", r.ball, 0.025, (200, 30, 30))
