@@ -3,7 +3,9 @@
 under every limit (the budget is counted in throw evaluations; seconds are only an optional cap);
 ``python -m app throw --thesis``: the thesis's numbers beside the lab's;
 ``python -m app throw CONFIG --closed-loop {open,vhc,transverse,all} [--plant FILE] [--monte-carlo N]``:
-the throw in full dynamics under feedback on a plant that differs from the model (docs/throwing.md).
+the throw in full dynamics under feedback on a plant that differs from the model (docs/throwing.md);
+``python -m app throw [CONFIG] --optimize --robust [--plant heavier] [--closed-loop transverse] [--monte-carlo 50]``:
+the robust objective (5 % quantile of the distance over N plants, limits held in >= 95 % of them).
 
 JSON output of a throw (a stable contract, keys are only ever added): theta_dot_e [m/s], duration [s],
 release_position [x, y] (m, y above the ground), release_velocity [vx, vy] (m/s, J(q) q'),
@@ -16,6 +18,7 @@ N m), plus release_velocity_thesis, release_speed, release_angle_deg, q_release,
 from __future__ import annotations
 
 import json
+import math
 import sys
 
 import yaml
@@ -47,8 +50,9 @@ def add_arguments(p):
     p.add_argument("--closed-loop", choices=("open", "vhc", "transverse", "all"),
                    help="simulate the throw in full dynamics under a controller: the plan's torques open loop, "
                         "VHC enforcement (feedback linearization + PD) or the transverse LQR stabilizer")
-    p.add_argument("--plant", default="exact",
-                   help="plant file (YAML/JSON) or a shipped plant (exact, heavier) for --closed-loop")
+    p.add_argument("--plant", default=None,
+                   help="plant file (YAML/JSON) or a shipped plant (exact, heavier) for --closed-loop (default exact) "
+                        "and --robust (default heavier)")
     p.add_argument("--catch", action="store_true",
                    help="with --closed-loop (one controller): the catching arm catches the ball, planned from a noisy "
                         "camera's view of the flight")
@@ -59,7 +63,12 @@ def add_arguments(p):
                    help="with --catch: the catching arm simulated in its full dynamics under computed torque "
                         "(default) or following its planned motion exactly (kinematic, as in the coursework)")
     p.add_argument("--monte-carlo", type=int, metavar="N",
-                   help="with --closed-loop: N plants drawn from the plant file's uncertainty ranges (seed: --seed)")
+                   help="with --closed-loop: N plants drawn from the plant file's uncertainty ranges (seed: --seed); "
+                        "with --robust: the plants of the robust objective (default 50)")
+    p.add_argument("--robust", action="store_true",
+                   help="with --optimize: the robust objective: the 5 %% quantile of the landing distance over N "
+                        "plants (--monte-carlo N, --plant, --closed-loop controller), limits held in >= 95 %% of them; "
+                        "--evaluations counts robust evaluations (default 60), from CONFIG (default optimized_thesis)")
 
 
 def _floats(values, digits=10):
@@ -196,6 +205,60 @@ def _optimize(args, arm) -> int:
     return 0
 
 
+def _robust_value_json(v) -> dict:
+    num = lambda x: float(x) if math.isfinite(x) else None
+    return {"score": num(v.score), "distance_q05": num(v.distance_q05), "held_rate": v.held_rate,
+            "ratio_q95": num(v.ratio_q95), "robust": v.robust}
+
+
+def _optimize_robust(args, arm, cfg) -> int:
+    from app.core.errors import UserError
+    from app.core.throw_control import load_plant
+    from app.core.throw_robust import DEFAULT_PLANTS, DEFAULT_ROBUST_EVALUATIONS, RobustOptimizer
+    from app.core.vhc import ThrowingArm, load_throw_config
+
+    evaluations = DEFAULT_ROBUST_EVALUATIONS if args.evaluations is None else args.evaluations
+    if not 1 <= evaluations <= 100000:
+        raise UserError("--evaluations (robust evaluations) must be a whole number from 1 to 100000")
+    if args.closed_loop == "all":
+        raise UserError("--robust needs one controller (--closed-loop open, vhc or transverse)")
+    if args.budget is not None:
+        raise UserError("--robust counts its budget in evaluations only (leave out --budget)")
+    controller = args.closed_loop or "transverse"
+    plants = DEFAULT_PLANTS if args.monte_carlo is None else args.monte_carlo
+    plant = load_plant(args.plant or "heavier")
+    start = (cfg or load_throw_config("optimized_thesis")).spec
+    if cfg is None:
+        arm = ThrowingArm(args.robot, load_throw_config("optimized_thesis").model)
+    opt = RobustOptimizer(arm, plant, controller, plants=plants, seed=args.seed, degree=len(start.a) - 1)
+    res = opt.run(start, evaluations, progress=_progress(not args.json))
+    feas = res.throw.check()
+    if args.out:
+        with open(args.out, "w", encoding="utf-8") as fh:
+            yaml.safe_dump({"title": f"robust throw (seed {args.seed}, {controller}, {plants} plants of "
+                                     f"{plant.title})", **res.spec.to_config()}, fh, sort_keys=False)
+    robust = {"controller": controller, "plant": plant.to_config(), "plants": plants, "seed": args.seed,
+              **_robust_value_json(res.value), "start": _robust_value_json(res.start),
+              "evaluations_to_best": res.evaluation_history[-1][0]}
+    if args.json:
+        out = {"objective": "robust", "distance_from_base": res.throw.release.distance_from_base,
+               "config": res.spec.to_config(), "result": throw_json(res.throw.arm, res.throw, feas),
+               "evaluations": res.evaluations, "evaluation_budget": evaluations, "seed": args.seed, "robust": robust}
+        json.dump(out, sys.stdout)
+        sys.stdout.write("\n")
+        return 0
+    v, s0 = res.value, res.start
+    print(f"robust throw (seed {args.seed}): {res.evaluations} robust evaluations, each {plants} plants of "
+          f"'{plant.title}' under {controller}")
+    for label, x in (("start", s0), ("best", v)):
+        print(f"  {label:5s} 5 % quantile of the distance {x.distance_q05:.4f} m, limits held in "
+              f"{100 * x.held_rate:.0f} % of the plants (95 % quantile of the worst limit ratio {x.ratio_q95:.3f})"
+              + ("" if x.robust else "; not robust"))
+    print(f"  plan: {res.throw.release.distance_from_base:.4f} m from the base on the model")
+    print("  config: " + json.dumps(res.spec.to_config()))
+    return 0
+
+
 def closed_loop_json(run, planned_distance: float, j: int = 0) -> dict:
     """One plant's closed-loop throw (docs/cli.md)."""
     released = bool(run.released[j])
@@ -253,7 +316,7 @@ def _closed_loop(args, throw) -> dict:
     from app.core.throw_control import CONTROLLERS, load_plant, simulate_closed_loop
     from app.core.throw_montecarlo import format_summary, monte_carlo
 
-    plant = load_plant(args.plant)
+    plant = load_plant(args.plant or "exact")
     names = list(CONTROLLERS) if args.closed_loop == "all" else [args.closed_loop]
     planned = throw.release.distance_from_base
     out = {"plant": plant.to_config(), "planned_distance_from_base": planned,
@@ -298,6 +361,10 @@ def run(args) -> int:
     arm = ThrowingArm(args.robot, cfg.model if cfg else None)
     if args.thesis:
         return _thesis(args, arm)
+    if args.robust and not args.optimize:
+        raise UserError("--robust needs --optimize")
+    if args.optimize and args.robust:
+        return _optimize_robust(args, arm, cfg)
     if args.optimize:
         return _optimize(args, arm)
     if cfg is None:
