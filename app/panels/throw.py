@@ -627,16 +627,12 @@ class ThrowStudio:
         """Point the camera at the whole throw (and the chart below the ground when shown)."""
         if self.view is None:
             return
-        camera = self.session.client.camera
-        below = (0.0 - self.chart.bottom + 0.1) if self.chart.visible else 0.0
-        width = camera.image_width if camera.image_height > 0 else 1280
-        height = camera.image_height if camera.image_height > 0 else 720
-        position, look_at, up = throw_camera(self.drawing.region(below), width, height)
-        with self.session.client.atomic():
-            camera.fov = FOV
-            camera.up_direction = tuple(up)
-            camera.position = tuple(position)
-            camera.look_at = tuple(look_at)
+        region = self.drawing.region((0.0 - self.chart.bottom + 0.1) if self.chart.visible else 0.0)
+
+        def pose(width: int, height: int):
+            return (FOV, *throw_camera(region, width, height))
+
+        self.session.scene.point_camera(pose)
 
     def start(self) -> None:
         """Play the throw from the start."""

@@ -58,7 +58,7 @@ class Presenter:
         on = bool(on)
         self.on = on
         scene = self.session.scene
-        scene.line_scale = LINE_SCALE if on else 1.0
+        scene.set_line_scale(LINE_SCALE if on else 1.0)
         scene.panel_fraction = PANEL_VW / 100.0 if on else None
         self._style.content = style_html(on)
         if self.switch is not None and self.switch.value != on:

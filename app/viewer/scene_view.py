@@ -5,7 +5,7 @@ labels). Panels reach it as ``session.scene``; see docs/panels.md.
 from __future__ import annotations
 
 import threading
-from typing import Dict, Iterable, List, Optional, Tuple
+from typing import Callable, Dict, Iterable, List, Optional, Tuple
 
 import numpy as np
 
@@ -50,9 +50,10 @@ class SceneView:
         self._overlays: Dict[str, object] = {}
         self.options = {"frames": False, "coms": True, "labels": True, "plane": True}
         self.highlighted: Dict[str, List[str]] = {"bodies": [], "joints": []}
-        self._frame_pending = False
+        self._pending_camera: Optional[Callable[[int, int], Optional[Tuple]]] = None
         self._camera_hooked = False
-        self.line_scale = 1.0                  # presenter mode: lines drawn from now on are thicker
+        self.line_scale = 1.0                  # presenter mode: lines are drawn thicker (set_line_scale)
+        self._line_widths: Dict[str, float] = {}      # overlay line name -> width asked for [px]
         self.panel_fraction: Optional[float] = None   # presenter mode: share of the width the panel covers
         self._gravity = None
         self._gravity_place = None
@@ -287,6 +288,7 @@ class SceneView:
             return f"{OVERLAY_ROOT}/{name}/d{self._drawings}"
 
     def _put(self, name: str, handle) -> object:
+        self._line_widths.pop(name, None)
         self._overlays[name] = handle
         return handle
 
@@ -307,7 +309,19 @@ class SceneView:
         segments = np.stack([pts[:-1], pts[1:]], axis=1)
         handle = self.scene.add_line_segments(self._node(name), segments, colors=color,
                                               thickness=width * self.line_scale, thickness_units="screen")
-        return self._put(name, handle)
+        self._put(name, handle)
+        self._line_widths[name] = width
+        return handle
+
+    def set_line_scale(self, scale: float) -> None:
+        """Draw lines ``scale`` times as thick as asked, the ones on display included (presenter mode)."""
+        with self._lock:
+            self.line_scale = float(scale)
+            with self.client.atomic():
+                for name, width in self._line_widths.items():
+                    handle = self._overlays.get(name)
+                    if handle is not None:
+                        handle.thickness = width * self.line_scale
 
     def add_trajectory(self, name: str, points, color: Color = (31, 119, 180), width: float = 2.5):
         """A path through world points, e.g. an end-effector or ball trajectory."""
@@ -331,6 +345,7 @@ class SceneView:
         return self._put(name, handle)
 
     def remove_overlay(self, name: str) -> None:
+        self._line_widths.pop(name, None)
         handle = self._overlays.pop(name, None)
         if handle is not None:
             handle.remove()
@@ -344,42 +359,58 @@ class SceneView:
     # ------------------------------------------------------------------ camera
     def frame_camera(self) -> None:
         """Point the camera at the robot as drawn now (with a margin for moving it); planar robots
-        square-on to their plane. Before the
-        browser has reported its camera, framing waits for that first report."""
+        square-on to their plane (see ``point_camera`` for when it happens)."""
+        self.point_camera(self._robot_camera)
+
+    def point_camera(self, pose_for_view: Callable[[int, int], Optional[Tuple]]) -> None:
+        """Set the camera to ``pose_for_view(width, height)`` of the browser's 3D view in pixels:
+        (fov in radians, position, look_at, up) or None to leave it. Before the browser has reported
+        its camera (and so its size), the request waits for that first report; the last request
+        wins, so a panel's framing is not undone by an earlier one that waited."""
         with self._lock:
-            if self.drawing is None:
-                return
             camera = self.client.camera
             if camera.update_timestamp == 0.0:
-                self._frame_pending = True
+                self._pending_camera = pose_for_view
                 if not self._camera_hooked:
                     self._camera_hooked = True
                     camera.on_update(self._first_camera_report)
                 return
-            self._frame_pending = False
-            fov = np.radians(28.0 if self.drawing.robot.is_planar else 40.0)   # little perspective
+            self._pending_camera = None
             width = camera.image_width if camera.image_height > 0 else 1280
-            aspect = width / camera.image_height if camera.image_height > 0 else 16 / 9
-            occluded = SIDE_PANEL_PX / width if width > 2.2 * SIDE_PANEL_PX else 0.0
-            if self.panel_fraction is not None:
-                occluded = self.panel_fraction
-            framing = self.drawing.framing(self.q)
-            position, look_at, up = camera_pose(framing, fov=fov, aspect=aspect, occluded_right=occluded)
-            forward = (look_at - position) / np.linalg.norm(look_at - position)
-            right = np.cross(forward, up)
-            right /= np.linalg.norm(right)
-            half_width = np.linalg.norm(look_at - position) * np.tan(fov / 2) * aspect * (1 - occluded)
+            height = camera.image_height if camera.image_height > 0 else 720
+            pose = pose_for_view(width, height)
+            if pose is None:
+                return
+            fov, position, look_at, up = pose
             with self.client.atomic():
                 camera.fov = float(fov)
                 camera.up_direction = tuple(up)
                 camera.position = tuple(position)
                 camera.look_at = tuple(look_at)
-                self._gravity_place = (framing, right, half_width)
-                self._place_gravity(framing, right, half_width)
+
+    def _robot_camera(self, width: int, height: int) -> Optional[Tuple]:
+        if self.drawing is None:
+            return None
+        fov = np.radians(28.0 if self.drawing.robot.is_planar else 40.0)   # little perspective
+        aspect = width / height
+        occluded = SIDE_PANEL_PX / width if width > 2.2 * SIDE_PANEL_PX else 0.0
+        if self.panel_fraction is not None:
+            occluded = self.panel_fraction
+        framing = self.drawing.framing(self.q)
+        position, look_at, up = camera_pose(framing, fov=fov, aspect=aspect, occluded_right=occluded)
+        forward = (look_at - position) / np.linalg.norm(look_at - position)
+        right = np.cross(forward, up)
+        right /= np.linalg.norm(right)
+        half_width = np.linalg.norm(look_at - position) * np.tan(fov / 2) * aspect * (1 - occluded)
+        with self.client.atomic():
+            self._gravity_place = (framing, right, half_width)
+            self._place_gravity(framing, right, half_width)
+        return fov, position, look_at, up
 
     def _first_camera_report(self, _camera) -> None:
-        if self._frame_pending:
-            self.frame_camera()
+        pending = self._pending_camera
+        if pending is not None:
+            self.point_camera(pending)
 
 
 def _nice_cell(step: float) -> float:
