@@ -116,10 +116,19 @@ def test_throw_one_lands_at_its_marker_and_throw_three_is_refused(lab, browser, 
         ball = studio.nodes.get("ball").position
         assert ball[0] == pytest.approx(rel.distance_from_base, abs=1e-9) and ball[1] == 0    # landed: y set to 0
         # the marker is drawn where it projects on the canvas (the camera frames the whole throw)
+        seen = {}
+
         def marker_drawn():
-            px = shots.project(session.client.camera, [marker.position])[0]
-            return 0 <= px[0] < session.client.camera.image_width - 420 and reddish_near(shots.image(page), px)
-        wait_until(marker_drawn, what="the landing marker drawn red where it projects")  # the camera may still move
+            camera = session.client.camera
+            px = shots.project(camera, [marker.position])[0]
+            seen.update(px=px.round(1).tolist(), view=(camera.image_width, camera.image_height),
+                        position=np.round(camera.position, 3).tolist(), look_at=np.round(camera.look_at, 3).tolist())
+            return 0 <= px[0] < camera.image_width - 420 and reddish_near(shots.image(page), px)
+        try:
+            wait_until(marker_drawn, what="the landing marker drawn red where it projects")  # the camera may move
+        except AssertionError as exc:
+            page.screenshot(path="/tmp/r2lab_marker_not_drawn.png")
+            raise AssertionError(f"{exc}; last seen {seen}, page saved in /tmp/r2lab_marker_not_drawn.png")
         # throw three cannot be reached as printed: a clear message, and throw one stays on display
         page.get_by_role("button", name="Throw 3", exact=True).click()
         badge(page, "error", "cannot be reached", "2.7 mm beyond the reach of link 3")

@@ -148,6 +148,8 @@ class Session:
         self._q_job = Coalescer(lambda: self._fire("q", self.q.copy()), 0.05, self._internal_error)
         self._param_job = Coalescer(self._apply_parameters, 0.05, self._internal_error)
         self._check_job = Coalescer(self._run_check, 0.2, self._internal_error)
+        self.checks = 0                  # pinocchio cross-checks started (numbers the badge: data-check)
+        self.checked_values: Dict[str, float] = {}      # the parameters of the last one started
         self._build_page()
 
     # ================================================================== public API for panels
@@ -561,11 +563,13 @@ class Session:
                 f"{joints} · {kind}{extra}</div></div>")
 
     @staticmethod
-    def _badge_html(state: str, text: str) -> str:
+    def _badge_html(state: str, text: str, check: int = 0) -> str:
+        """The pinocchio badge; ``check`` numbers the cross-check it shows (0: none yet)."""
         colors = {"ok": ("#1e7b34", "#e6f4ea", "&#10004;"), "bad": ("#b3261e", "#fce8e6", "&#10008;"),
                   "pending": ("#5f6368", "#f1f3f4", "&#8943;")}
         fg, bg, icon = colors[state]
-        return (f'<div class="r2-badge" data-state="{state}" style="font-size:0.82em;color:{fg};background:{bg};'
+        return (f'<div class="r2-badge" data-state="{state}" data-check="{check}" '
+                f'style="font-size:0.82em;color:{fg};background:{bg};'
                 f'border-radius:6px;padding:3px 8px;margin:2px 0">{icon} {html.escape(text)}</div>')
 
     def _build_coordinates(self) -> None:
@@ -643,9 +647,13 @@ class Session:
         with self._lock:
             robot, values, generation = self.robot, dict(self.params), self.generation
             ready = self.numeric is not None
+            if ready:
+                self.checks += 1
+                self.checked_values = values
+            check = self.checks
         if not ready or self.closed:
             return
-        self._badge.content = self._badge_html("pending", "pinocchio cross-check: running")
+        self._badge.content = self._badge_html("pending", "pinocchio cross-check: running", check)
         try:
             result = cross_check(robot, values, states=30)
         except Exception as exc:
@@ -659,7 +667,7 @@ class Session:
                 text, state = f"pinocchio disagrees: {errs}", "bad"
         with self._lock:
             if generation == self.generation and values == self.params and not self.closed:
-                self._badge.content = self._badge_html(state, text)
+                self._badge.content = self._badge_html(state, text, check)
 
     # ================================================================== panels
     def _build_panels(self, generation: int) -> None:
