@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import ast
 import math
+import threading
 from dataclasses import dataclass
 from typing import Iterable, Mapping, Optional
 
@@ -350,7 +351,7 @@ def parse_expression(text, allowed_names: Iterable[str] | None = None,
     source = source.replace("^", "**")
     reader = _Reader(text, allowed_names, extra, field, bounds)
     try:
-        tree = ast.parse(source, mode="eval")
+        tree = _ast_parse(source)
     except SyntaxError as exc:
         raise _fail(field, f"syntax error in {excerpt(text)}: {exc.msg}") from None
     except (RecursionError, MemoryError, ValueError):
@@ -456,11 +457,27 @@ def load_exact_list(text: str, count: int, max_length: int = 50_000_000) -> list
     return [reader.read(node) for node in tree.elts]
 
 
+#: CPython 3.11's AST constructor keeps its recursion depth in shared state: two threads parsing at
+#: once (a derivation read from the cache while a field is parsed) can fail with "SystemError: AST
+#: constructor recursion depth mismatch" (python/cpython#106905). One parse at a time.
+_AST_LOCK = threading.Lock()
+
+
+def _ast_parse(text: str) -> ast.Expression:
+    """``ast.parse(text, mode="eval")``, one thread at a time.
+
+    >>> type(_ast_parse("m1*l1**2").body).__name__
+    'BinOp'
+    """
+    with _AST_LOCK:
+        return ast.parse(text, mode="eval")
+
+
 def _parse_stored(text, max_length: int) -> ast.AST:
     if not isinstance(text, str) or len(text) > max_length:
         raise ExpressionError("stored expression: not a text of acceptable length")
     try:
-        return ast.parse(text, mode="eval").body
+        return _ast_parse(text).body
     except (SyntaxError, RecursionError, MemoryError, ValueError):
         raise ExpressionError("stored expression: not valid") from None
 
