@@ -38,9 +38,14 @@ def verdict(page):
 
 
 def choose(page, label, option):
-    """Pick ``option`` of the dropdown ``label`` as a user does."""
+    """Pick ``option`` of the dropdown ``label`` as a user does; for the answer's Entry, wait until
+    the answer box shows it was emptied for the new entry (a user sees that before typing; an answer
+    typed earlier is emptied with it)."""
+    before = verdict_seq(page) if label == "Entry" else None
     field(page, label).click()
     page.get_by_role("option", name=option, exact=True).click()
+    if before is not None:
+        shots.wait_until(lambda: verdict_seq(page) > before, 15.0, f"the answer box emptied for {option!r}")
 
 
 def verdict_seq(page):
