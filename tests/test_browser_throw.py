@@ -86,7 +86,7 @@ def reddish_near(img, center, half=6):
     return False
 
 
-def test_throw_one_lands_at_its_marker_and_throw_three_is_refused(lab, browser, arm):
+def test_throw_one_lands_at_its_marker_and_throw_three_is_refused(lab, browser, arm, tmp_path):
     page, session, studio = open_studio(lab, browser, hide=False)
     try:
         expected = arm.solve(thesis_throw("throw1"))
@@ -127,8 +127,9 @@ def test_throw_one_lands_at_its_marker_and_throw_three_is_refused(lab, browser, 
         try:
             wait_until(marker_drawn, what="the landing marker drawn red where it projects")  # the camera may move
         except AssertionError as exc:
-            page.screenshot(path="/tmp/r2lab_marker_not_drawn.png")
-            raise AssertionError(f"{exc}; last seen {seen}, page saved in /tmp/r2lab_marker_not_drawn.png")
+            saved = tmp_path / "marker_not_drawn.png"
+            page.screenshot(path=str(saved))
+            raise AssertionError(f"{exc}; last seen {seen}, page saved in {saved}")
         # throw three cannot be reached as printed: a clear message, and throw one stays on display
         page.get_by_role("button", name="Throw 3", exact=True).click()
         badge(page, "error", "cannot be reached", "2.7 mm beyond the reach of link 3")

@@ -10,7 +10,8 @@ page that freezes, a test that times out on one machine and not on another).
 with few nonzero entries keep the lifted polynomials sparse (on the determinant above, none of 1500
 seeds ran over 0.3 s, against one in two hundred hanging with sympy's draws). The generator is one
 stream, started again from a fixed seed by `restart()` at the beginning of every exercise solution
-and every derivation, so the same job draws the same points on every run and every CPU. (It is a
+and every derivation, so the same job draws the same points on every run and every CPU (jobs that
+run at once in the server's threads share the stream, and stay sparse). (It is a
 stream and not a fresh generator per call because Wang's algorithm restarts itself with a wider
 range when its points were unlucky, and fresh-but-identical draws would repeat the bad luck
 forever.) The factors are unique, so only the time changes, never the answer. A caller that passes
