@@ -63,8 +63,8 @@ def assert_robot_drawn(page, session):
     camera = session.client.camera
     visible = 0
     for points, color in links:
-        pixels = [px for px in shots.project(camera, points)
-                  if 0 <= px[0] < camera.image_width - 420 and 0 <= px[1] < img.shape[0]]
+        pixels = [px for px in shots.project(camera, points, (img.shape[1], img.shape[0]))
+                  if 0 <= px[0] < img.shape[1] - 420 and 0 <= px[1] < img.shape[0]]
         if len(pixels) < 2:
             continue
         hits = sum(has_colour(img, px, color) for px in pixels)

@@ -119,11 +119,11 @@ def test_throw_one_lands_at_its_marker_and_throw_three_is_refused(lab, browser, 
         seen = {}
 
         def marker_drawn():
-            camera = session.client.camera
-            px = shots.project(camera, [marker.position])[0]
+            camera, img = session.client.camera, shots.image(page)
+            px = shots.project(camera, [marker.position], (img.shape[1], img.shape[0]))[0]
             seen.update(px=px.round(1).tolist(), view=(camera.image_width, camera.image_height),
                         position=np.round(camera.position, 3).tolist(), look_at=np.round(camera.look_at, 3).tolist())
-            return 0 <= px[0] < camera.image_width - 420 and reddish_near(shots.image(page), px)
+            return 0 <= px[0] < img.shape[1] - 420 and reddish_near(img, px)
         try:
             wait_until(marker_drawn, what="the landing marker drawn red where it projects")  # the camera may move
         except AssertionError as exc:
@@ -195,7 +195,7 @@ def test_a_control_point_is_dragged_with_the_mouse(lab, browser):
         point = np.array(studio.nodes.get("chart_point_b3").position)
         for attempt in range(3):      # the point is grabbed where it is drawn once the camera has come to rest
             wait_until(lambda: camera_at_rest(session), timeout=30, what="the camera to come to rest")
-            x, y = shots.project(session.client.camera, [point])[0]
+            x, y = shots.project(session.client.camera, [point], shots.page_size(page))[0]
             page.mouse.move(x, y)
             page.wait_for_timeout(250)          # the page sees the pointer over the point before the press
             page.mouse.down()
@@ -214,7 +214,7 @@ def test_a_control_point_is_dragged_with_the_mouse(lab, browser):
         wait_until(lambda: abs(studio.point_value.value - studio.values["b"][3]) < 1e-9, what="the point slider")
         # the chart's scale: the pointer moved 16 px down, the point moved by as much on the chart
         g = studio.chart.geometry
-        px_per_m = abs(shots.project(session.client.camera, [point + [0, 1.0, 0]])[0][1] - y)
+        px_per_m = abs(shots.project(session.client.camera, [point + [0, 1.0, 0]], shots.page_size(page))[0][1] - y)
         moved = (before[3] - studio.values["b"][3]) * g.height / (g.hi - g.lo) * px_per_m
         assert 8 < moved < 24
         wait_until(lambda: studio.view is not None and studio.view.spec.b[3] == studio.values["b"][3],

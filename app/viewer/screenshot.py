@@ -102,9 +102,11 @@ def scene_node_names(page):
     return page.evaluate("() => Object.keys(window.__viserSceneTree.getState())")
 
 
-def project(camera, points):
+def project(camera, points, size=None):
     """Pixel coordinates (x right, y down) of world points in a tab's camera (viser's camera
-    frame follows OpenCV: z forward, y down)."""
+    frame follows OpenCV: z forward, y down). The camera reports the size of its drawing buffer,
+    which viser lowers when software WebGL draws slowly; ``size`` = (width, height) of the picture
+    to scale to (a screenshot's or the page's CSS pixels), by default the camera's own."""
     import numpy as np
     w, x, y, z = camera.wxyz
     R = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
@@ -114,7 +116,14 @@ def project(camera, points):
     f = camera.image_height / 2 / np.tan(camera.fov / 2)
     u = camera.image_width / 2 + f * cam[:, 0] / cam[:, 2]
     v = camera.image_height / 2 + f * cam[:, 1] / cam[:, 2]
+    if size is not None:
+        u, v = u * size[0] / camera.image_width, v * size[1] / camera.image_height
     return np.stack([u, v], axis=1)
+
+
+def page_size(page):
+    """(width, height) of a page's window in CSS pixels, the size the 3D view fills."""
+    return page.viewport_size["width"], page.viewport_size["height"]
 
 
 def hide_notifications(page) -> None:
