@@ -287,16 +287,54 @@ class _Deriver:
 
     # -------------------------------------------------------------- main
     def run(self) -> Dynamics:
-        robot, n = self.robot, self.n
+        """The whole derivation, step by step: energies, M, g and springs, Christoffel symbols and
+        C, friction, the equations of motion and the linear parametrization."""
+        robot = self.robot
         self.progress(0.05, "kinematics")
+        self._coordinates_step()
+        energies = self._body_energies()
+        M_tp, kinetic, potential = energies["M_tp"], energies["kinetic"], energies["potential"]
+        self._motor_energies(M_tp, kinetic)
+        M_tp = [[e.expand() for e in row] for row in M_tp]
+        self.progress(0.5, "inertia matrix")
+        M = self.MX(M_tp)
+        self.step("Inertia matrix", rf"M(q) = {self.L(M)}",
+                  r"Collect $T = \frac{1}{2} \dot q^T M(q) \dot q$; $M$ is symmetric and positive definite.",
+                  bodies=[b.name for b in robot.bodies])
+        k_tp, spring_vec = self._springs(potential)
+        self.progress(0.6, "gravity and springs")
+        g_tp, g = self._gravity(energies["U_tp"], spring_vec)
+        self.progress(0.7, "Christoffel symbols")
+        christoffel, C_tp, C, c = self._christoffel(M_tp)
+        fr, friction = self._friction()
+        self._equations_step(M, c, g, spring_vec, friction)
+        self.progress(0.8, "linear parametrization")
+        param = self._parametrize(M_tp, C_tp, g_tp, k_tp, fr)
+        self._parametrization_steps(param)
+        self.progress(1.0, "done")
+        return Dynamics(
+            robot_name=robot.name, content_hash=robot.content_hash,
+            coordinates=list(robot.coordinates), parameters=list(robot.parameters),
+            com_positions=energies["positions"], com_velocities=energies["velocities"],
+            angular_velocities=energies["omegas"],
+            kinetic=kinetic, potential=potential, M=M, christoffel=christoffel, C=C, c=c, g=g,
+            spring=spring_vec, friction=friction, parametrization=param, steps=self.steps)
+
+    def _coordinates_step(self) -> None:
+        self.step("Generalized coordinates",
+                  r"q = " + self.L(sp.Matrix(self.q)) + r",\quad \dot q = " + self.L(sp.Matrix(self.dq)),
+                  "The configuration is described by these coordinates; the model follows from the "
+                  "Lagrangian $L = T - U$.")
+
+    def _body_energies(self) -> dict:
+        """Each body's kinematics and energies (two steps per body), summed into the inertia matrix
+        and the gravitational potential as canonical polynomials: a dict with positions, velocities,
+        omegas, kinetic, potential (per body), M_tp and U_tp."""
+        robot, n = self.robot, self.n
         positions, velocities, omegas, kinetic, potential = {}, {}, {}, {}, {}
         M_tp = [[TrigPoly() for _ in range(n)] for _ in range(n)]
         U_tp = TrigPoly()
         dq = sp.Matrix(self.dq)
-        self.step("Generalized coordinates",
-                  r"q = " + self.L(sp.Matrix(self.q)) + r",\quad \dot q = " + self.L(dq),
-                  "The configuration is described by these coordinates; the model follows from the "
-                  "Lagrangian $L = T - U$.")
         gvec = robot.gravity
         for idx, body in enumerate(robot.bodies):
             self.progress(0.05 + 0.45 * idx / max(1, len(robot.bodies)), f"energy of {body.name}")
@@ -307,24 +345,7 @@ class _Deriver:
             Jw = self.kin.angular_jacobian(body.name, in_body_frame=True)
             w = (Jw * dq).applyfunc(lambda e: tidy(e, self.angles, self.masses))
             positions[body.name], velocities[body.name], omegas[body.name] = p, v, w
-            Jv_tp = [[_tp(Jv[r, k]) for k in range(n)] for r in range(3)]
-            Jw_tp = [[_tp(Jw[r, k]) for k in range(n)] for r in range(3)]
-            Mi = [[TrigPoly() for _ in range(n)] for _ in range(n)]
-            I = body.inertia
-            for j in range(n):
-                for k in range(j, n):
-                    acc = TrigPoly()
-                    if body.mass != 0:
-                        for r in range(3):
-                            if Jv_tp[r][j].terms and Jv_tp[r][k].terms:
-                                acc = acc + (Jv_tp[r][j] * Jv_tp[r][k]).scale(body.mass)
-                    for r in range(3):
-                        for s in range(3):
-                            if I[r, s] != 0 and Jw_tp[r][j].terms and Jw_tp[s][k].terms:
-                                acc = acc + (Jw_tp[r][j] * Jw_tp[s][k]).scale(I[r, s])
-                    Mi[j][k] = acc.expand()
-                    if k != j:
-                        Mi[k][j] = Mi[j][k]
+            Mi = self._body_inertia(body, Jv, Jw)
             kinetic[body.name] = self.quadratic_form(Mi)
             for j in range(n):
                 for k in range(n):
@@ -334,34 +355,60 @@ class _Deriver:
                 Ui = _tp(-body.mass * (gvec.T * p)[0])
             potential[body.name] = self.X(Ui)
             U_tp = U_tp + Ui
-            label = body.name
-            shown = label.replace("_", " ")
-            text = (f"Centre of mass of {shown}: position, velocity, and angular velocity in its own frame; "
-                    r"then $T = \frac{1}{2} m \|v_c\|^2 + \frac{1}{2} \omega^T I \omega$.")
-            latex = (rf"p_{{c,{label}}} = {self.L(p)},\quad v_{{c,{label}}} = {self.L(v)},\quad "
-                     rf"\omega_{{{label}}} = {self.L(w)}")
-            self.step(f"Kinematics of {shown}", latex, "Position of the centre of mass (base frame), its "
-                      "velocity as the time derivative, and the link's angular velocity in its own frame.",
-                      bodies=[label])
-            self.step(f"Kinetic energy of {shown}", rf"T_{{{label}}} = {self.L(kinetic[label])}", text,
-                      bodies=[label])
-        # motors (rotor inertias of elastic joints)
-        for cname, inertia in robot.motor_inertias.items():
-            k = robot.coordinates.index(cname)
+            self._body_steps(body.name, p, v, w, kinetic[body.name])
+        return {"positions": positions, "velocities": velocities, "omegas": omegas, "kinetic": kinetic,
+                "potential": potential, "M_tp": M_tp, "U_tp": U_tp}
+
+    def _body_inertia(self, body, Jv, Jw) -> List[List[TrigPoly]]:
+        """One body's share of M(q): m Jv^T Jv + Jw^T I Jw, entry by entry (symmetric)."""
+        n = self.n
+        Jv_tp = [[_tp(Jv[r, k]) for k in range(n)] for r in range(3)]
+        Jw_tp = [[_tp(Jw[r, k]) for k in range(n)] for r in range(3)]
+        Mi = [[TrigPoly() for _ in range(n)] for _ in range(n)]
+        I = body.inertia
+        for j in range(n):
+            for k in range(j, n):
+                acc = TrigPoly()
+                if body.mass != 0:
+                    for r in range(3):
+                        if Jv_tp[r][j].terms and Jv_tp[r][k].terms:
+                            acc = acc + (Jv_tp[r][j] * Jv_tp[r][k]).scale(body.mass)
+                for r in range(3):
+                    for s in range(3):
+                        if I[r, s] != 0 and Jw_tp[r][j].terms and Jw_tp[s][k].terms:
+                            acc = acc + (Jw_tp[r][j] * Jw_tp[s][k]).scale(I[r, s])
+                Mi[j][k] = acc.expand()
+                if k != j:
+                    Mi[k][j] = Mi[j][k]
+        return Mi
+
+    def _body_steps(self, label, p, v, w, kinetic) -> None:
+        shown = label.replace("_", " ")
+        text = (f"Centre of mass of {shown}: position, velocity, and angular velocity in its own frame; "
+                r"then $T = \frac{1}{2} m \|v_c\|^2 + \frac{1}{2} \omega^T I \omega$.")
+        latex = (rf"p_{{c,{label}}} = {self.L(p)},\quad v_{{c,{label}}} = {self.L(v)},\quad "
+                 rf"\omega_{{{label}}} = {self.L(w)}")
+        self.step(f"Kinematics of {shown}", latex, "Position of the centre of mass (base frame), its "
+                  "velocity as the time derivative, and the link's angular velocity in its own frame.",
+                  bodies=[label])
+        self.step(f"Kinetic energy of {shown}", rf"T_{{{label}}} = {self.L(kinetic)}", text,
+                  bodies=[label])
+
+    def _motor_energies(self, M_tp, kinetic) -> None:
+        """Rotor inertias of elastic joints, added to M_tp and kinetic in place."""
+        dq = sp.Matrix(self.dq)
+        for cname, inertia in self.robot.motor_inertias.items():
+            k = self.robot.coordinates.index(cname)
             M_tp[k][k] = M_tp[k][k] + TrigPoly.constant(inertia)
             kinetic[f"motor {cname}"] = inertia * dq[k] ** 2 / 2
             self.step(f"Kinetic energy of the motor on {cname}",
                       rf"T_{{m}} = {self.L(kinetic[f'motor {cname}'])}",
                       "Rotor inertia (reduced model: only the rotor's own spin counts).")
-        M_tp = [[e.expand() for e in row] for row in M_tp]
-        self.progress(0.5, "inertia matrix")
-        M = self.MX(M_tp)
-        self.step("Inertia matrix", rf"M(q) = {self.L(M)}",
-                  r"Collect $T = \frac{1}{2} \dot q^T M(q) \dot q$; $M$ is symmetric and positive definite.",
-                  bodies=[b.name for b in robot.bodies])
 
-        k_tp, spring_vec = self._springs(potential)
-        self.progress(0.6, "gravity and springs")
+    def _gravity(self, U_tp: TrigPoly, spring_vec):
+        """g(q) = (dU/dq)^T as canonical polynomials and as shown, with the potential energy, gravity
+        and spring-force steps."""
+        robot = self.robot
         g_tp = [U_tp.diff(qk) for qk in self.q]
         g = sp.Matrix([self.X(e) for e in g_tp])
         if any(e != 0 for e in robot.gravity):
@@ -372,9 +419,13 @@ class _Deriver:
         if robot.springs:
             self.step("Spring forces", rf"k(q) = \left(\frac{{\partial U_e}}{{\partial q}}\right)^T = {self.L(spring_vec)}",
                       "Gradient of the elastic potential energy.")
+        return g_tp, g
 
-        # Christoffel symbols
-        self.progress(0.7, "Christoffel symbols")
+    def _christoffel(self, M_tp):
+        """The Christoffel matrices C_i (a step each), C(q, dq) with c = C dq, and c(q, dq):
+        returns (christoffel, C_tp, C, c)."""
+        n, robot = self.n, self.robot
+        dq = sp.Matrix(self.dq)
         dM = [[[M_tp[i][j].diff(qk) for qk in self.q] for j in range(n)] for i in range(n)]
         christoffel = []
         C_tp = [[TrigPoly() for _ in range(n)] for _ in range(n)]
@@ -399,8 +450,12 @@ class _Deriver:
         self.step("Coriolis and centrifugal terms", rf"c(q,\dot q) = {self.L(c)}", r"$c_i = \dot q^T C_i \dot q$.")
         self.step(r"Factorization $c = C(q, \dot q)\, \dot q$", rf"C(q,\dot q) = {self.L(C)}",
                   r"Built from the Christoffel symbols, so that $\dot M - 2C$ is skew-symmetric.")
+        return christoffel, C_tp, C, c
 
-        # friction
+    def _friction(self):
+        """Viscous and Coulomb joint friction: (the list of rows, the column tau_f) and its step."""
+        robot = self.robot
+        dq = sp.Matrix(self.dq)
         fr = robot.viscous_forces()
         for cname, coeff in robot.coulomb.items():
             k = robot.coordinates.index(cname)
@@ -410,15 +465,17 @@ class _Deriver:
             self.step("Friction", rf"\tau_f = {self.L(friction)}", "Viscous (and Coulomb) friction at the joints"
                       + (r"; a damper $d$ on a stretch $\delta$ adds $\left(\frac{\partial \delta}{\partial q}\right)^T "
                          r"d\,\dot\delta$." if robot.dampers else "."))
-        tau = sp.Matrix(robot.coordinates and [sp.Symbol("tau_" + str(i + 1)) for i in range(n)])
+        return fr, friction
+
+    def _equations_step(self, M, c, g, spring_vec, friction) -> None:
+        robot = self.robot
         lhs = M * sp.Matrix(self.ddq) + c + g + spring_vec + friction
         self.step("Equations of motion", rf"M(q)\ddot q + c(q,\dot q) + g(q)"
                   + (r" + k(q)" if robot.springs else "") + (r" + \tau_f" if robot.has_friction else "")
                   + rf" = \tau,\quad {self.L(lhs)} = {self.L(sp.Matrix(self._tau_names()))}",
                   "The Euler-Lagrange equations, one row per coordinate.")
 
-        self.progress(0.8, "linear parametrization")
-        param = self._parametrize(M_tp, C_tp, g_tp, k_tp, fr)
+    def _parametrization_steps(self, param: Parametrization) -> None:
         has_y0 = any(e != 0 for e in param.known_terms)
         y0 = rf",\quad y_0 = {self.L(param.known_terms)}" if has_y0 else ""
         self.step("Linear parametrization", rf"Y(q,\dot q,\ddot q)\,a{' + y_0' if has_y0 else ''} = \tau,\quad "
@@ -428,13 +485,6 @@ class _Deriver:
         y0r = rf",\quad y_{{0r}} = {self.L(param.known_terms_ref)}" if has_y0 else ""
         self.step("Adaptive regressor", rf"Y(q,\dot q,\dot q_r,\ddot q_r) = {self.L(param.Y_ref)}{y0r}",
                   r"$Y_r a = M \ddot q_r + C(q, \dot q) \dot q_r + g(q)$ (plus springs and friction): the Slotine-Li regressor.")
-        self.progress(1.0, "done")
-        return Dynamics(
-            robot_name=robot.name, content_hash=robot.content_hash,
-            coordinates=list(robot.coordinates), parameters=list(robot.parameters),
-            com_positions=positions, com_velocities=velocities, angular_velocities=omegas,
-            kinetic=kinetic, potential=potential, M=M, christoffel=christoffel, C=C, c=c, g=g,
-            spring=spring_vec, friction=friction, parametrization=param, steps=self.steps)
 
     def _springs(self, potential: Dict[str, sp.Expr]):
         """Elastic energy of each spring (a step each) and the spring forces k(q) = (dU_e/dq)^T, as
