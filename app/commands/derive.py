@@ -75,6 +75,17 @@ def write_text(path: str, text: str, option: str, quiet: bool = False) -> int:
 
 
 def run(args) -> int:
+    """The model as text, JSON or LaTeX; the text and JSON forms come from app.core.output_cache
+    (no sympy imported) when this robot file was derived and printed so before."""
+    if args.latex or args.no_cache:
+        return _run(args)
+    from app.core import output_cache
+    options = {"json": args.json, "known": args.known, "steps": args.steps,
+               "width": None if args.json else output_cache.terminal_width()}
+    return output_cache.run_cached("derive", output_cache.robot_file(args.robot), options, lambda: (_run(args), ()))
+
+
+def _run(args) -> int:
     from app.core.dynamics import derive
     from app.core.errors import UserError
     from app.core.robot import load_robot

@@ -62,6 +62,18 @@ def jsonable(value):
 
 
 def run(args) -> int:
+    """The solution as text or JSON (from app.core.output_cache, without sympy, when this exercise
+    file was solved so before), or written as Markdown / LaTeX."""
+    if args.out or args.latex:
+        return _run(args)[0]
+    from app.core import output_cache
+    options = {"json": args.json, "set": list(args.set),
+               "width": None if args.json else output_cache.terminal_width()}
+    return output_cache.run_cached("solve", output_cache.exercise_file(args.exercise), options, lambda: _run(args))
+
+
+def _run(args):
+    """(exit code, [(reference, path)] of the robot file the solution read)."""
     from app.core.errors import UserError
     from app.core.exercise import load_exercise, solve
     from app.core.expressions import parse_number
@@ -83,16 +95,16 @@ def run(args) -> int:
         variant = dict((part.strip() for part in item.split("=", 1)) for item in args.set)
         write_text(args.latex, solution_tex(sol, variant), "--latex", quiet=args.json)
         if not args.json:
-            return 0
+            return 0, ()
     if args.json:
         out = {"id": ex.id, "title": ex.title, "robot": sol.robot.name,
                "steps": [{**s.as_dict(), "notes": sol.step_notes(k)} for k, s in enumerate(sol.steps)],
                "answers": {k: jsonable(v) for k, v in sol.answers.items()}, "notes": sol.notes}
         json.dump(out, sys.stdout)
         sys.stdout.write("\n")
-        return 0
+        return 0, [(ex.robot_ref, sol.robot.source)]
     print(terminal_text(sol))
-    return 0
+    return 0, [(ex.robot_ref, sol.robot.source)]
 
 
 def terminal_text(sol) -> str:

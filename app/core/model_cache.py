@@ -30,7 +30,8 @@ import stat
 from pathlib import Path
 from typing import Dict, List, Mapping, Optional
 
-import sympy as sp
+# sympy is imported where an expression table needs it: the envelope functions are standard library
+# only, so that app.core.output_cache can read the cache without the symbolic engine
 
 FORMAT = "robotics2lab-derivation"
 FORMAT_VERSION = 1
@@ -48,10 +49,11 @@ def cache_root() -> Path:
     return base_path / LAB_FOLDER
 
 
-def cache_dir() -> Optional[Path]:
-    """The derivations folder (created with mode 0700), or None when it cannot be used safely:
-    not a real directory, not the user's own, or writable by others."""
-    folder = cache_root() / "derivations"
+def cache_dir(name: str = "derivations") -> Optional[Path]:
+    """The cache's folder ``name`` (``derivations``; ``outputs``: app.core.output_cache), created
+    with mode 0700, or None when it cannot be used safely: not a real directory, not the user's
+    own, or writable by others."""
+    folder = cache_root() / name
     try:
         folder.mkdir(mode=0o700, parents=True, exist_ok=True)
         info = os.lstat(folder)
@@ -64,15 +66,15 @@ def cache_dir() -> Optional[Path]:
         return None
 
 
-def entry_path(key: str) -> Optional[Path]:
+def entry_path(key: str, folder_name: str = "derivations") -> Optional[Path]:
     """Where the entry of a derivation key lives (a hash of the key), or None without a usable folder."""
-    folder = cache_dir()
+    folder = cache_dir(folder_name)
     if folder is None:
         return None
     return folder / f"{hashlib.sha256(key.encode()).hexdigest()[:32]}.json"
 
 
-def read_entry(path: Optional[Path], expect: Mapping[str, str]) -> Optional[dict]:
+def read_entry(path: Optional[Path], expect: Mapping[str, str], form: str = FORMAT) -> Optional[dict]:
     """The payload of a valid entry whose envelope matches ``expect`` (engine version, robot hash,
     key ...), or None for a missing, foreign, stale or corrupt file. Never executes anything."""
     if path is None:
@@ -85,7 +87,7 @@ def read_entry(path: Optional[Path], expect: Mapping[str, str]) -> Optional[dict
             data = json.loads(fh.read(MAX_ENTRY_BYTES + 1).decode("utf-8"))
     except (OSError, ValueError, RecursionError):
         return None
-    if not isinstance(data, dict) or data.get("format") != FORMAT or data.get("version") != FORMAT_VERSION:
+    if not isinstance(data, dict) or data.get("format") != form or data.get("version") != FORMAT_VERSION:
         return None
     envelope = data.get("envelope")
     if not isinstance(envelope, dict) or any(envelope.get(k) != v for k, v in expect.items()):
@@ -94,7 +96,7 @@ def read_entry(path: Optional[Path], expect: Mapping[str, str]) -> Optional[dict
     return payload if isinstance(payload, dict) else None
 
 
-def write_entry(path: Optional[Path], envelope: Mapping[str, str], payload: dict) -> bool:
+def write_entry(path: Optional[Path], envelope: Mapping[str, str], payload: dict, form: str = FORMAT) -> bool:
     """Write an entry atomically (a private temporary file renamed over the old one); False when
     the folder cannot be written (the model then lives in memory only)."""
     if path is None:
@@ -103,7 +105,7 @@ def write_entry(path: Optional[Path], envelope: Mapping[str, str], payload: dict
     try:
         fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
         with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            json.dump({"format": FORMAT, "version": FORMAT_VERSION, "envelope": dict(envelope),
+            json.dump({"format": form, "version": FORMAT_VERSION, "envelope": dict(envelope),
                        "payload": payload}, fh, separators=(",", ":"))
         os.replace(tmp, path)
         return True
@@ -125,6 +127,7 @@ class ExprTable:
         self._index: Dict[sp.Basic, int] = {}
 
     def index(self, expr) -> int:
+        import sympy as sp
         expr = sp.sympify(expr)
         found = self._index.get(expr)
         if found is None or self.exprs[found] != expr or type(self.exprs[found]) is not type(expr):
@@ -141,6 +144,7 @@ class ExprTable:
         return self.exprs[value]
 
     def matrix_of(self, value) -> sp.Matrix:
+        import sympy as sp
         rows, cols, entries = sized(value, 3)
         if type(rows) is not int or type(cols) is not int or not 0 <= rows <= 1000 or not 0 <= cols <= 1000 \
                 or len(as_list(entries)) != rows * cols:
