@@ -16,12 +16,12 @@ def soak(seed: int, actions: int, verbose: bool = True):
     """Walk ``actions`` random actions with ``seed`` over the soak's robots; the walk's Report."""
     from app.viewer import walk
     from app.viewer.screenshot import Browser
-    from app.viewer.server import LabServer
+    from app.commands.serve import lab_server
     start = time.perf_counter()
     # straight to the terminal: the walk reads the process's own output for server exceptions
     log = ((lambda text: print(f"{time.perf_counter() - start:7.1f} s  {text}", file=sys.__stdout__, flush=True))
            if verbose else None)
-    lab = LabServer(port=0, verbose=False)
+    lab = lab_server(port=0)
     try:
         with Browser() as browser:
             return walk.Walk(lab, browser, seed, pool=walk.SOAK_POOL, log=log).run(actions)

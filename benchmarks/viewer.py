@@ -42,9 +42,9 @@ def _robot_on_canvas(page) -> bool:
 
 def first_frame(browser, robot="planar_2r"):
     from app.viewer.screenshot import wait_ready
-    from app.viewer.server import LabServer
+    from app.commands.serve import lab_server
     t0 = time.perf_counter()
-    lab = LabServer(port=0, robot=robot, verbose=False)
+    lab = lab_server(port=0, robot=robot)
     listening = time.perf_counter() - t0
     page = browser.page(lab.url)
     while not _robot_on_canvas(page):
@@ -68,8 +68,8 @@ def _switch(page, session, name) -> float:
 
 def switching(browser):
     from app.viewer.screenshot import new_session, wait_ready
-    from app.viewer.server import LabServer
-    lab = LabServer(port=0, robot=CACHED[0], verbose=False)
+    from app.commands.serve import lab_server
+    lab = lab_server(port=0, robot=CACHED[0])
     page = browser.page(lab.url)
     wait_ready(page, CACHED[0])
     session = new_session(lab, set())
@@ -108,8 +108,8 @@ def switching(browser):
 def drag(browser, seconds=3.0):
     from app.viewer.screenshot import slider_thumb, wait_ready, new_session
     from app.viewer.scene_view import SceneView
-    from app.viewer.server import LabServer
-    lab = LabServer(port=0, robot="planar_2r", verbose=False)
+    from app.commands.serve import lab_server
+    lab = lab_server(port=0, robot="planar_2r")
     page = browser.page(lab.url)
     wait_ready(page, "planar_2r")
     session = new_session(lab, set())

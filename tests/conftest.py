@@ -20,8 +20,8 @@ OURS = (str(ROOT / "app"), str(ROOT / "tests"))
 
 @pytest.fixture(scope="session")
 def lab():
-    from app.viewer.server import LabServer
-    server = LabServer(port=0, verbose=False)
+    from app.commands.serve import lab_server
+    server = lab_server(port=0)
     yield server
     server.stop()
 

@@ -1,9 +1,13 @@
 """The house of docs/architecture.md: each folder imports only from the rooms below it.
 
 Read from the syntax of every module of app/ (imports at any depth, relative ones resolved), so a
-lazy import inside a function counts too. The one edge that goes upwards is listed with its reason
-in docs/architecture.md and here; a new one fails this test, naming file and line."""
+lazy import inside a function counts too. No edge goes upwards: the viewer gets its panels from a
+registry the command that starts the server passes (``app.commands.serve.lab_server``). Panels
+see the page only through the session interface (the public names of ``app.viewer``) and the
+core's public names, and never reach into the session or viser. A breach fails, naming file and
+line."""
 import ast
+import functools
 from pathlib import Path
 
 import pytest
@@ -24,10 +28,14 @@ ALLOWED = {
     "__main__": {"cli"},
     "app": {"core"},                   # app/__init__.py makes sympy's factoring reproducible first
 }
-#: (module, imported room): upward edges kept on purpose, each with its reason in docs/architecture.md
-EXCEPTIONS = {("app.viewer.session", "panels")}       # the session discovers the panel plug-ins
 #: third-party packages that belong to the page: the computing core and the scene never import them
 GUI_PACKAGES = {"viser", "playwright", "websockets"}
+
+
+@functools.lru_cache(maxsize=None)
+def parse(text: str) -> ast.Module:
+    """The syntax tree of a module's text (each file is read by several tests: parsed once)."""
+    return ast.parse(text)
 
 
 def room(module: str):
@@ -50,7 +58,7 @@ def imports_in(text: str, module: str, is_package: bool = False):
     [(1, 'numpy'), (2, 'app.panels')]
     """
     package = module if is_package else module.rsplit(".", 1)[0]
-    for node in ast.walk(ast.parse(text)):
+    for node in ast.walk(parse(text)):
         if isinstance(node, ast.Import):
             for alias in node.names:
                 yield node.lineno, alias.name
@@ -86,7 +94,7 @@ def test_no_room_imports_from_a_room_above_it():
         own = room(name)
         for line, target in imports(path):
             other = room(target)
-            if other in (None, own) or other in ALLOWED[own] or (name, other) in EXCEPTIONS:
+            if other in (None, own) or other in ALLOWED[own]:
                 continue
             found.append(f"{path.relative_to(ROOT)}:{line}: {own} imports {target} ({other})")
     assert not found, "imports against docs/architecture.md:\n" + "\n".join(found)
@@ -99,11 +107,101 @@ def test_the_core_and_the_scene_import_no_page_packages():
     assert not found, "\n".join(found)
 
 
-def test_the_listed_exceptions_still_exist():
-    """An exception that is gone is removed from the list (and from docs/architecture.md)."""
-    for name, other in EXCEPTIONS:
-        path = ROOT / (name.replace(".", "/") + ".py")
-        assert any(room(t) == other for _, t in imports(path)), f"{name} no longer imports {other}"
+def test_the_core_imports_neither_viewer_nor_panels():
+    found = [f"{path.relative_to(ROOT)}:{line}: imports {target}"
+             for path, name in modules() if room(name) in ("core", "core.tasks")
+             for line, target in imports(path) if room(target) in ("viewer", "panels", "commands", "cli")]
+    assert not found, "\n".join(found)
+
+
+def names_imported(text: str, module: str):
+    """(line, dotted module, imported name or None) of every import in ``text`` of ``module``
+    (``None`` for ``import a.b``), relative imports resolved.
+
+    >>> list(names_imported("from app.viewer import mathml, SceneView", "app.panels.x"))
+    [(1, 'app.viewer', 'mathml'), (1, 'app.viewer', 'SceneView')]
+    """
+    package = module.rsplit(".", 1)[0]
+    for node in ast.walk(parse(text)):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                yield node.lineno, alias.name, None
+        elif isinstance(node, ast.ImportFrom):
+            target = node.module or ""
+            if node.level:
+                base = package.split(".")[:len(package.split(".")) - node.level + 1]
+                target = ".".join(base + ([node.module] if node.module else []))
+            for alias in node.names:
+                yield node.lineno, target, alias.name
+
+
+def panel_files():
+    return [(path, name) for path, name in modules() if room(name) == "panels"]
+
+
+def test_panels_use_only_the_session_interface_and_the_cores_public_names():
+    """``from app.viewer import X`` with X among ``app.viewer.__all__`` (the session interface and
+    the widgets for panels), and from the core (and app/scene.py) only names without a leading
+    underscore; no page package (viser, playwright) and no server."""
+    import app.viewer
+    found = []
+    for path, name in panel_files():
+        for line, target, imported in names_imported(path.read_text(encoding="utf-8"), name):
+            where = f"{path.relative_to(ROOT)}:{line}"
+            other = room(target)
+            if target.split(".")[0] in GUI_PACKAGES:
+                found.append(f"{where}: imports {target} (a page package: the viewer's job)")
+            elif other == "viewer" and (target != "app.viewer" or imported not in app.viewer.__all__):
+                found.append(f"{where}: imports {imported or ''} from {target} (not a public name of app.viewer)")
+            elif other in ("core", "core.tasks", "scene") and (
+                    any(part.startswith("_") for part in target.split(".")) or (imported or "").startswith("_")):
+                found.append(f"{where}: imports the private {imported or target} of {target}")
+    assert not found, "\n".join(found)
+
+
+#: what a panel must not reach through: the session's server and viser client, and viser's
+#: private attributes (the page is built on viser's public API only)
+SESSION_INSIDES = {"lab", "client"}
+VISER_PRIVATE = {"_children", "_impl", "_container_handle_from_uuid", "_websock_interface",
+                 "_gui_input_handle_from_uuid", "_handle_gui_updates"}
+#: the one module allowed viser's insides: app/viewer/guard.py checks every widget update a browser
+#: sends before viser applies it, and viser has no public hook for that (docs/architecture.md)
+VISER_INSIDES_ALLOWED = {"app.viewer.guard"}
+
+
+def attribute_chains(text: str):
+    """(line, dotted chain) of every attribute read such as ``self.session.client.camera``.
+
+    >>> [c for _, c in attribute_chains("x = self.session.lab.robot(1)")]
+    ['self.session.lab.robot', 'self.session.lab', 'self.session']
+    """
+    for node in ast.walk(parse(text)):
+        if isinstance(node, ast.Attribute):
+            parts, inner = [node.attr], node.value
+            while isinstance(inner, ast.Attribute):
+                parts.append(inner.attr)
+                inner = inner.value
+            if isinstance(inner, ast.Name):
+                yield node.lineno, ".".join([inner.id] + parts[::-1])
+
+
+def test_panels_do_not_reach_around_the_session():
+    found = []
+    for path, _ in panel_files():
+        for line, chain in attribute_chains(path.read_text(encoding="utf-8")):
+            parts = chain.split(".")
+            for before, after in zip(parts, parts[1:]):
+                if before == "session" and (after in SESSION_INSIDES or after.startswith("_")):
+                    found.append(f"{path.relative_to(ROOT)}:{line}: {chain}")
+    assert not found, "panels use the session interface (docs/panels.md), not:\n" + "\n".join(sorted(set(found)))
+
+
+def test_no_private_viser_attributes():
+    found = [f"{path.relative_to(ROOT)}:{line}: {chain}"
+             for path, name in modules() if name not in VISER_INSIDES_ALLOWED
+             for line, chain in attribute_chains(path.read_text(encoding="utf-8"))
+             if chain.split(".")[-1] in VISER_PRIVATE]
+    assert not found, "\n".join(sorted(set(found)))
 
 
 @pytest.mark.parametrize("source, module, package, target", [

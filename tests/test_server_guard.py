@@ -81,8 +81,8 @@ def test_foreign_origin_and_host_get_no_session(lab):
 
 
 def test_beyond_loopback_needs_the_token():
-    from app.viewer.server import LabServer
-    lab = LabServer(host="0.0.0.0", port=0, verbose=False)
+    from app.commands.serve import lab_server
+    lab = lab_server(host="0.0.0.0", port=0)
     try:
         token = lab.policy.token
         assert token and len(token) >= 20 and lab.url.endswith(f"/{token}/")

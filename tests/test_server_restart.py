@@ -4,11 +4,11 @@ viser's page reconnects by itself."""
 import time
 
 from app.viewer import screenshot as shots
-from app.viewer.server import LabServer
+from app.commands.serve import lab_server
 
 
 def test_tabs_come_back_as_they_were_after_a_restart(browser):
-    first = LabServer(port=0, verbose=False)
+    first = lab_server(port=0)
     port = first.viser.get_port()
     pages = []
     try:
@@ -23,7 +23,7 @@ def test_tabs_come_back_as_they_were_after_a_restart(browser):
     finally:
         first.stop()
     time.sleep(0.5)
-    second = LabServer(port=port, verbose=False)
+    second = lab_server(port=port)
     try:
         for page, robot, tab in pages:          # the pages were not reloaded: they reconnect on their own
             shots.wait_until(lambda: any(s.robot_name == robot and s.ready.is_set() for s in second.sessions.values()),

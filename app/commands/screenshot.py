@@ -2,17 +2,8 @@
 NAME = "screenshot"
 HELP = "save a picture of the page (headless Chromium)"
 DESCRIPTION = ("Start the lab in-process, open it in headless Chromium (Debian's /usr/bin/chromium), "
-               "select a robot and a panel, and save a PNG. --all-docs regenerates docs/screenshots/ (the list "
-               "below, then every panel module's save_doc_screenshots(out_dir)).")
-
-#: the pictures in docs/screenshots/: (file, robot, panel, coordinates or None, step index or None)
-DOC_SHOTS = [
-    ("rp_2004_03_25_model.png", "rp_2004_03_25", "Model", [0.5, 0.25], None),
-    ("spatial_3r_model.png", ("spatial_3r", "viewer_demo_spatial_3r"), "Model", None, None),
-    ("throwing_arm_model.png", "throwing_arm", "Model", None, None),
-    ("planar_2r_steps.png", "planar_2r", "Steps", [0.6, 0.9], 3),
-]
-
+               "select a robot and a panel, and save a PNG. --all-docs regenerates the pictures of the page in "
+               "docs/screenshots/ (app/viewer/doc_pictures.py) and the exam sheet's (app/viewer/sheets.py).")
 
 def add_arguments(p):
     p.add_argument("--robot", help="robot name (see `python -m app robots`)")
@@ -52,10 +43,10 @@ def run(args) -> int:
 def _panel_title(name):
     """The tab title matching ``name`` case-insensitively (UserError when there is none)."""
     from app.core.errors import UserError
-    from app.panels import discover_panels
+    from app.panels import registry
     if name is None:
         return None
-    titles = [p.title for p in discover_panels()]
+    titles = [p.title for p in registry().specs]
     for title in titles:
         if title.lower() == name.lower():
             return title
@@ -63,7 +54,9 @@ def _panel_title(name):
 
 
 def shoot(robot, out, panel=None, q=None, step=None, width=1280, height=720, lab=None, browser=None):
-    """One picture; ``q`` sets the coordinates, ``step`` opens a derivation step (0-based)."""
+    """One picture; ``q`` sets the coordinates, ``step`` opens a derivation step (0-based); a lab
+    server (with the panels, ``serve.lab_server``) is started for it unless ``lab`` is given."""
+    from app.commands.serve import lab_server
     from app.core.errors import UserError
     from app.viewer.screenshot import capture
 
@@ -80,42 +73,26 @@ def shoot(robot, out, panel=None, q=None, step=None, width=1280, height=720, lab
                 raise UserError(f"--step: {session.robot_name} has {count} steps")
             session.state["steps"]["show"](step)
 
-    return capture(robot, out, panel=title, setup=setup, width=width, height=height, lab=lab, browser=browser)
+    own_lab = lab is None
+    lab = lab or lab_server(port=0, robot=robot)
+    try:
+        return capture(robot, out, panel=title, setup=setup, width=width, height=height, lab=lab, browser=browser)
+    finally:
+        if own_lab:
+            lab.stop()
 
 
 def _all_docs() -> int:
-    from pathlib import Path
-
-    from app.core.robot import list_robot_names
+    from app.commands.serve import lab_server
+    from app.viewer import doc_pictures, sheets
     from app.viewer.screenshot import Browser
-    from app.viewer.server import LabServer
 
-    out_dir = Path(__file__).resolve().parents[2] / "docs" / "screenshots"
-    names = list_robot_names()
-    lab = LabServer(port=0, verbose=False)
+    lab = lab_server(port=0)
     try:
         with Browser() as browser:
-            for filename, robot, panel, q, step in DOC_SHOTS:
-                if isinstance(robot, tuple):    # the first robot whose name starts with one of these
-                    robot = next((n for prefix in robot for n in names if n.startswith(prefix)), None)
-                    if robot is None:
-                        print(f"skipped {filename}: no such robot yet")
-                        continue
-                path = shoot(robot, out_dir / filename, panel, q, step, lab=lab, browser=browser)
-                print(f"{path}  ({robot})")
+            doc_pictures.save_all(lab, shoot, doc_pictures.DOCS_DIR, browser)
     finally:
         lab.stop()
-    from app.viewer import sheets
-    for module in _panel_modules_with_pictures() + [sheets]:     # pictures that need their own set-up
-        for path in module.save_doc_screenshots(out_dir):
-            print(f"{path}  ({module.__name__})")
+    for path in sheets.save_doc_screenshots(doc_pictures.DOCS_DIR):     # pictures of the exam sheet
+        print(f"{path}  (sheets)")
     return 0
-
-
-def _panel_modules_with_pictures():
-    """Panel modules that define ``save_doc_screenshots(out_dir)`` (their own docs pictures)."""
-    import importlib
-
-    from app.panels import discover_panels
-    modules = [importlib.import_module(f"app.panels.{spec.name}") for spec in discover_panels()]
-    return [m for m in modules if callable(getattr(m, "save_doc_screenshots", None))]

@@ -14,9 +14,7 @@ def add_arguments(p):
 def run(args) -> int:
     import time
 
-    from app.viewer.server import LabServer
-
-    lab = LabServer(host=args.host, port=args.port, robot=args.robot, verbose=False)
+    lab = lab_server(host=args.host, port=args.port, robot=args.robot)
     print(f"Robotics II Lab: open {lab.url} in a browser (Ctrl+C stops)", flush=True)
     if lab.policy.token:
         print(f"Other machines: http://<this machine's address>:{lab.viser.get_port()}/{lab.policy.token}/ "
@@ -29,3 +27,12 @@ def run(args) -> int:
     finally:
         lab.stop()
     return 0
+
+
+def lab_server(**options):
+    """A ``LabServer`` (app/viewer/server.py) with the page's panels (``app.panels.registry()``):
+    what ``serve``, ``screenshot``, the tests and the benchmarks start. ``options`` as
+    ``LabServer``'s (``verbose`` False unless given)."""
+    from app.panels import registry
+    from app.viewer.server import LabServer
+    return LabServer(**{"verbose": False, **options}, panels=registry())

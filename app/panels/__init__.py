@@ -5,7 +5,9 @@ A panel module defines ``TITLE`` (the tab label), ``ORDER`` (tabs sorted by it) 
 ``available(robot) -> bool`` (the tab appears only for robots where it is true) and
 ``REBUILD = False`` (the panel is built once per browser tab instead of after every robot switch;
 it then follows robot changes through ``session.on_robot_change``). Modules whose name starts
-with ``_`` are skipped. docs/panels.md explains the ``Session`` a panel receives.
+with ``_`` are skipped. docs/panels.md explains the session a panel receives (``PanelSession``
+of app/viewer/panel_api.py). The viewer never imports this package: whoever starts a server
+passes it ``registry()``.
 
 >>> titles = [p.title for p in discover_panels()]
 >>> titles.index("Model") < titles.index("Steps") < titles.index("Robot")
@@ -16,26 +18,14 @@ from __future__ import annotations
 import importlib
 import pkgutil
 import traceback
-from dataclasses import dataclass
-from typing import Callable, List, Optional, Tuple
+from typing import List
+
+from app.viewer import PanelRegistry, PanelSpec
 
 
-@dataclass(frozen=True)
-class PanelSpec:
-    """A discovered panel module."""
-    name: str                     # module name, e.g. "model"
-    title: str
-    order: float
-    build: Callable
-    available: Optional[Callable] = None
-    rebuild: bool = True
-
-    def applies_to(self, robot) -> bool:
-        return self.available is None or bool(self.available(robot))
-
-
-def discover_panels_with_errors() -> Tuple[List[PanelSpec], List[str]]:
-    """All panel modules, sorted by ORDER, and a message for each module that failed to import."""
+def registry() -> PanelRegistry:
+    """Every panel module, sorted by ORDER, and a message for each module that failed to import:
+    what the server is given (``LabServer(panels=registry())``)."""
     import app.panels as pkg
     specs, errors = [], []
     for info in pkgutil.iter_modules(pkg.__path__):
@@ -51,8 +41,8 @@ def discover_panels_with_errors() -> Tuple[List[PanelSpec], List[str]]:
         specs.append(PanelSpec(info.name, str(mod.TITLE), float(getattr(mod, "ORDER", 50)), mod.build,
                                getattr(mod, "available", None), bool(getattr(mod, "REBUILD", True))))
     specs.sort(key=lambda s: (s.order, s.title))
-    return specs, errors
+    return PanelRegistry(tuple(specs), tuple(errors))
 
 
 def discover_panels() -> List[PanelSpec]:
-    return discover_panels_with_errors()[0]
+    return list(registry().specs)

@@ -35,22 +35,18 @@ def _table(plan) -> str:
 def _frame(session, points) -> None:
     """Camera square-on to the plane, showing every point (region, flight) beside the side panel."""
     from app.scene import Framing, camera_pose
-    from app.viewer.scene_view import SIDE_PANEL_PX
+    from app.viewer import SIDE_PANEL_PX
     pts = np.asarray(points, float)
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     framing = Framing(np.array([*(lo + hi) / 2, 0.0]), float(np.linalg.norm(hi - lo) / 2),
                       np.array([0.0, 1.0, 0.0]), np.array([0.0, 0.0, 1.0]))
-    camera = session.client.camera
-    width = camera.image_width if camera.image_height > 0 else 1280
-    aspect = width / camera.image_height if camera.image_height > 0 else 16 / 9
-    occluded = SIDE_PANEL_PX / width if width > 2.2 * SIDE_PANEL_PX else 0.0
     fov = np.radians(28.0)
-    position, look_at, up = camera_pose(framing, fov=fov, aspect=aspect, occluded_right=occluded)
-    with session.client.atomic():
-        camera.fov = float(fov)
-        camera.up_direction = tuple(up)
-        camera.position = tuple(position)
-        camera.look_at = tuple(look_at)
+
+    def pose(width, height):
+        occluded = SIDE_PANEL_PX / width if width > 2.2 * SIDE_PANEL_PX else 0.0
+        return (fov, *camera_pose(framing, fov=fov, aspect=width / height, occluded_right=occluded))
+
+    session.scene.point_camera(pose)
 
 
 def build(session) -> None:
@@ -95,7 +91,7 @@ def build(session) -> None:
         sc = session.scene
         plan, ball = result["plan"], result["ball"]
         z = lambda pts: np.column_stack([pts, np.zeros(len(pts))])
-        with session.holding(generation) as current, session.client.atomic():
+        with session.holding(generation) as current, session.atomic():
             if not current:
                 return
             for k, line in enumerate(result["region"]):
@@ -127,7 +123,7 @@ def build(session) -> None:
             frames = 90
             for k in range(frames + 1):
                 t = plan.time * k / frames
-                with session.holding(generation) as current, session.client.atomic():
+                with session.holding(generation) as current, session.atomic():
                     if not current:
                         return
                     session.scene.set_pose(plan.joint_motion([t])[:, 0])

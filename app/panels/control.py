@@ -649,7 +649,7 @@ class ControlPanel:
             plots = list(self._plot_data)
         if not self._alive():
             return
-        with self.session.client.atomic():
+        with self.session.atomic():
             for plot in plots:
                 x, data = with_time_marker(plot["x"], plot["columns"], t, *plot["span"])
                 try:
@@ -706,7 +706,7 @@ class ControlPanel:
             return
         k = index_at(res.t, t)
         scene = self.session.scene
-        with self.session.holding(self.generation) as current, self.session.client.atomic():
+        with self.session.holding(self.generation) as current, self.session.atomic():
             if not current:                 # the robot was switched: draw nothing of this run
                 return
             scene.set_pose(res.q[k])
@@ -758,7 +758,7 @@ class ControlPanel:
         if getattr(self, "_thread", None) is not None and self._thread.is_alive():
             return
         self._thread = threading.Thread(target=self._replay_loop, daemon=True,
-                                        name=f"control-replay-{self.session.client.client_id}")
+                                        name=f"control-replay-{self.session.tab_id}")
         self._thread.start()
 
     def _stop_replay(self) -> None:
@@ -807,71 +807,3 @@ class ControlPanel:
         else:
             png = plots_png(res, plot_groups(res, self.true_coefficients))
             event.client.send_file_download(f"{stem}.png", png)
-
-
-# ====================================================================== pictures for the docs
-#: docs/screenshots/ pictures of this panel: file -> (robot, configure() arguments, time shown,
-#: panel scroll in pixels, picture height)
-DOC_SHOTS = {
-    "planar_2r_computed_torque.png": ("planar_2r", dict(controller="computed_torque", mismatch="m2=3, I2=0.15",
-                                                        reference="sine amplitude=0.6,0.8 f=0.5,0.35", duration=6),
-                                      2.3, 520, 900),
-    "planar_2r_adaptive.png": ("planar_2r", dict(controller="adaptive", mismatch="m2=3, I2=0.15",
-                                                 reference="sine amplitude=0.6,0.8 f=0.5,0.35", duration=10),
-                               0.45, 880, 1060),
-    # the plots of an adaptive run beside a kept computed-torque run with the same mismatch, and
-    # the grey time marker at the replay's time
-    "planar_2r_comparison.png": ("planar_2r", dict(controller="adaptive", mismatch="m2=3, I2=0.15",
-                                                   reference="sine amplitude=0.6,0.8 f=0.5,0.35", duration=6,
-                                                   compare_with=dict(controller="computed_torque")),
-                                 2.3, 560, 1000),
-}
-
-
-def save_screenshot(out, robot: str, settings: Dict, t_show: float, scroll: int, lab=None, browser=None,
-                    height: int = 900, q=None):
-    """Run a controller in the page from q (default 0) and save the robot (at ``t_show``, with the
-    reference ghost) and the plots (the panel scrolled by ``scroll`` pixels) as a PNG. A
-    ``compare_with`` entry of ``settings`` (fields that differ) runs first and is kept for comparison."""
-    from app.viewer.screenshot import capture
-
-    settings = dict(settings)
-    compare_with = settings.pop("compare_with", None)
-
-    def setup(session):
-        session.set_q(np.zeros(session.robot.n) if q is None else q)
-        panel = session.state["control"]["panel"]
-        if compare_with is not None:        # a first run kept for comparison: the same fields but these
-            panel.configure(**{**settings, **compare_with})
-            panel.run(wait=True)
-            panel.keep_for_comparison()
-        panel.configure(**settings)
-        panel.run(wait=True)
-        panel.show_time(t_show)
-
-    def action(page):
-        page.mouse.move(1070, 600)
-        page.mouse.wheel(0, scroll)
-        page.wait_for_timeout(800)
-        page.mouse.move(5, 5)
-
-    return capture(robot, out, panel=TITLE, setup=setup, action=action, height=height, lab=lab, browser=browser)
-
-
-def save_doc_screenshots(out_dir=None) -> List:
-    """Regenerate this panel's pictures in docs/screenshots/ (headless Chromium)."""
-    from pathlib import Path
-
-    from app.viewer.screenshot import Browser
-    from app.viewer.server import LabServer
-    out_dir = Path(out_dir or Path(__file__).resolve().parents[2] / "docs" / "screenshots")
-    lab = LabServer(port=0, verbose=False)
-    paths = []
-    try:
-        with Browser() as browser:
-            for filename, (robot, settings, t_show, scroll, height) in DOC_SHOTS.items():
-                paths.append(save_screenshot(out_dir / filename, robot, settings, t_show, scroll, lab, browser,
-                                             height))
-    finally:
-        lab.stop()
-    return paths

@@ -147,7 +147,7 @@ class HintDrawer:
         joint_rows = list((highlight.get("joint_values") or [])[:1])
         joint_rows += [{"label": v.get("label", ""), "values": v.get("vector", []), "role": v.get("role", "gradient")}
                        for v in highlight.get("vectors") or [] if v.get("joint_space")]
-        with session.client.atomic():
+        with session.atomic():
             if vectors:
                 self._draw_vectors(vectors, q, framing)
             if joint_rows:

@@ -109,7 +109,7 @@ def parse_field(field: Field, text: str, robot=None):
         raise UserError(f"{field.name}: empty value; type a number")
     if field.section == "parameter" or (robot is not None and field.name in robot.parameters):
         if robot is not None:
-            from app.viewer.session import parse_parameter
+            from app.viewer import parse_parameter
             try:
                 return parse_parameter(robot, field.name, text)
             except ParameterError as exc:

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import html
 import threading
-from pathlib import Path
 from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
@@ -28,9 +27,7 @@ from app.core.tex import solution_tex
 from app.panels.exercise_scene import HintDrawer
 from app.panels.exercise_variant import SOLUTIONS, Field, fields, format_value, parse_field
 from app.panels.exercise_view import answers_html, notes_html, question_html, step_html, variant_html
-from app.viewer import mathml
-from app.viewer.answer_box import AnswerBox
-from app.viewer.session import JobCancelled
+from app.viewer import AnswerBox, JobCancelled, mathml
 
 TITLE = "Exercises"
 ORDER = 30
@@ -228,7 +225,7 @@ class ExercisesPanel:
 
     def _show_exercise(self, ex: Exercise, keep: bool = False) -> None:
         try:
-            robot = self.session.lab.robot(ex.robot_ref)
+            robot = self.session.robot_named(ex.robot_ref)
         except UserError as exc:
             self.session.notify(f"Cannot open {ex.id}", str(exc), error=True)
             return
@@ -373,7 +370,7 @@ class ExercisesPanel:
         ex = self.exercise
         if ex is None:
             return False
-        robot = self.session.lab.robot(ex.robot_ref)
+        robot = self.session.robot_named(ex.robot_ref)
         values, texts = {}, {}
         try:
             for f, handle in self._fields:
@@ -539,7 +536,7 @@ class ExercisesPanel:
     def make_sheet(self, wait: bool = False):
         """Make the exam sheet of the typed exercises (or the one shown) in the background, then
         offer its files as downloads (app/viewer/sheets.py ``sheet_files``)."""
-        from app.viewer.sheets import parse_exercise_ids, sheet_files
+        from app.viewer import parse_exercise_ids, sheet_files
         ids = parse_exercise_ids(self.sheet_ids.value, [self.exercise.id] if self.exercise is not None else [])
         known = {ex.id for ex in self.exercises}
         unknown = [i for i in ids if i not in known]
@@ -599,94 +596,3 @@ def _constant(value) -> Optional[float]:
 def _message(text: str, error: bool = False) -> str:
     color = "#b3261e" if error else "#444"
     return f'<div class="r2-exercise-status" style="font-size:0.86em;color:{color};margin:2px 0">{html.escape(text)}</div>'
-
-
-# ====================================================================== pictures for the docs
-#: docs/screenshots/ pictures of this panel: (file, exercise ids to try in order, what to fall back
-#: on among the shipped exercises, title of the step shown, camera zoom: mouse-wheel pixels)
-DOC_SHOTS = [
-    ("exercise_planar_rp.png", ["2004-03-25#1"], "planar RP", "Kinematics of link2", 0),
-    ("exercise_spatial_3r.png", ["2024-06-12#1", "2017-03-29-mid#1"], "spatial 3R", "Kinematics of link2", 1200),
-    ("exercise_underactuated.png", ["2018-03-27#1"], "underactuated", "Reduced equation", 0),
-    ("exercise_sns.png", ["2020-06-05#1", "2019-04-29-mid#6"], "sns", "SNS solution", 0),
-]
-
-
-def _matches(ex: Exercise, robot, kind: str) -> bool:
-    joints = "".join("R" if b.joint.type == "revolute" else "P" for b in robot.bodies if b.joint.type != "fixed")
-    if kind == "planar RP":
-        return robot.is_planar and joints == "RP"
-    if kind == "spatial 3R":
-        return not robot.is_planar and joints == "RRR"
-    if kind == "underactuated":
-        return not all(robot.actuated) or "underactuated" in ex.topics
-    return kind in ex.topics
-
-
-def doc_exercise(candidates: List[str], kind: str) -> Optional[Exercise]:
-    """The first shipped exercise among ``candidates``, else the first one of that ``kind``."""
-    from app.core.robot import load_robot
-    exercises, _ = shipped_exercises()
-    by_id = {ex.id: ex for ex in exercises}
-    for ex_id in candidates:
-        if ex_id in by_id:
-            return by_id[ex_id]
-    return next((ex for ex in exercises if _matches(ex, load_robot(ex.robot_ref), kind)), None)
-
-
-def save_screenshot(out, exercise_id: str, step_title: str, zoom: int = 0, lab=None, browser=None,
-                    height: int = 960):
-    """A walkthrough mid-way: the exercise open at the first step called ``step_title`` (its 3D
-    hints drawn), the side panel scrolled to that step, the camera moved closer by ``zoom``."""
-    from app.viewer.screenshot import capture
-    ex = load_exercise(exercise_id)
-    shown = {}
-
-    def setup(session):
-        shown["session"] = session
-        panel = session.state["exercises"]["panel"]
-        panel.open(ex.id)
-        deadline = 120
-        while panel.solution is None and deadline > 0:
-            threading.Event().wait(0.1)
-            deadline -= 0.1
-        if panel.solution is None:
-            raise RuntimeError(f"{ex.id} was not solved in time")
-        titles = [st.title for st in panel.solution.steps]
-        panel.show(titles.index(step_title) if step_title in titles else len(titles) // 2)
-
-    def action(page):
-        page.evaluate("() => document.querySelector('.r2-step[data-step]').scrollIntoView({block: 'end'})")
-        if zoom:                          # towards the middle of the robot
-            from app.viewer.screenshot import project
-            session = shown["session"]
-            centre = session.drawing.framing(session.q).center
-            x, y = project(session.client.camera, [centre])[0]
-            page.mouse.move(float(x), float(y))
-            page.mouse.wheel(0, -zoom)
-        page.wait_for_timeout(600)
-        page.mouse.move(5, 5)
-
-    return capture(ex.robot_ref, out, panel=TITLE, setup=setup, action=action, height=height, lab=lab,
-                   browser=browser)
-
-
-def save_doc_screenshots(out_dir=None) -> List[Path]:
-    """Regenerate this panel's pictures in docs/screenshots/ (headless Chromium); an exercise
-    kind not shipped yet is skipped with a message."""
-    from app.viewer.screenshot import Browser
-    from app.viewer.server import LabServer
-    out_dir = Path(out_dir or Path(__file__).resolve().parents[2] / "docs" / "screenshots")
-    lab = LabServer(port=0, verbose=False)
-    paths = []
-    try:
-        with Browser() as browser:
-            for filename, candidates, kind, step_title, zoom in DOC_SHOTS:
-                ex = doc_exercise(candidates, kind)
-                if ex is None:
-                    print(f"skipped {filename}: no {kind} exercise shipped yet")
-                    continue
-                paths.append(save_screenshot(out_dir / filename, ex.id, step_title, zoom, lab, browser))
-    finally:
-        lab.stop()
-    return paths

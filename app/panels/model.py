@@ -10,8 +10,7 @@ import sympy as sp
 from app.core.answer_check import check_model_entry, model_entries
 from app.core.steps import shorthand_is_clear
 from app.core.tex import model_tex
-from app.viewer import mathml
-from app.viewer.answer_box import AnswerBox
+from app.viewer import AnswerBox, mathml
 
 TITLE = "Model"
 ORDER = 10

@@ -28,14 +28,13 @@ from app.core.errors import UserError
 from app.core.expressions import ExpressionError, excerpt, parse_expression
 from app.core.vhc import (DEFAULT_EVALUATIONS, REQUIRED_PARAMETERS, ThrowConfig, ThrowingArm, ThrowOptimizer, ThrowSpec,
                           elevate_bezier, load_throw_config, parse_throw_config, simulate_full)
-from app.viewer.fields import CommittedField
-from app.viewer.session import Coalescer
+from app.viewer import Coalescer, CommittedField
 
 from .throw_chart import BezierChart
 from .throw_closed_loop import ClosedLoopTab
 from .throw_plots import (BLOCK, ThrowView, angles_plot, badge_html, evaluate, feasibility_badge, phase_plot,
                           speeds_plot, summary_html, torques_plot, verification_html)
-from .throw_scene import FOV, Nodes, ThrowDrawing, throw_camera
+from .throw_scene import FOV, ThrowDrawing, throw_camera
 
 TITLE = "Throw studio"
 ORDER = 5                 # first tab of the throwing arm
@@ -162,7 +161,7 @@ class ThrowStudio:
         self.shown = 0                                 # throws shown so far (tests, screenshots)
         self.answered = 0                              # throws solved so far, shown or refused
         self.selected = ("a", 0)
-        self.nodes = Nodes(session.client.scene, "/throw")
+        self.nodes = session.scene.group("/throw")
         arm = self.arm()
         self.limits = arm.limits                       # the robot file's limits (Table A.2)
         self.drawing = ThrowDrawing(self.nodes, arm.shoulder_height)
@@ -573,7 +572,7 @@ class ThrowStudio:
                           ("torques", torques_plot(view, limits)), ("angles", angles_plot(view, limits))):
             legend, chart = self.plots[key]
             legend.content = spec.legend
-            with session.client.atomic():      # series and data of a new shape arrive together
+            with session.atomic():      # series and data of a new shape arrive together
                 if len(chart.series) != len(spec.series):
                     chart.series = spec.series
                 chart.data = spec.data
@@ -581,7 +580,7 @@ class ThrowStudio:
                 chart.scales = spec.scales
         self._redraw_chart(values, view.spec)
         self.drawing.shoulder = np.array([0.0, view.throw.arm.shoulder_height])   # platform and l0 may change
-        with session.client.atomic():
+        with session.atomic():
             self.drawing.show(view)
             for name, q in (("throw_start", view.samples.q[:, 0]), ("throw_release", view.samples.q[:, -1])):
                 if self._owns_robot():
@@ -652,7 +651,7 @@ class ThrowStudio:
         self._show_time(float(t))
 
     def _show_time(self, t: float) -> None:
-        with self.session.client.atomic():
+        with self.session.atomic():
             q = self.drawing.at(t)
             if q is not None:
                 self._pose(q, sliders=t <= 0.0)
@@ -698,7 +697,7 @@ class ThrowStudio:
     def _start_animation_thread(self) -> None:
         self._set_speed()
         self._thread = threading.Thread(target=self._animate, daemon=True,
-                                        name=f"throw-anim-{self.session.client.client_id}")
+                                        name=f"throw-anim-{self.session.tab_id}")
         self._thread.start()
 
     def _animate(self) -> None:
@@ -727,7 +726,7 @@ class ThrowStudio:
             if playing:
                 try:
                     self.time.value = float(min(t, self.time.max))
-                    with self.session.client.atomic():
+                    with self.session.atomic():
                         q = self.drawing.at(t)
                         if q is not None:
                             self._pose(q)
@@ -891,70 +890,3 @@ class ThrowStudio:
         self.nodes.clear()
         for ghost in ("throw_start", "throw_release"):
             self.session.scene.remove_ghost(ghost)
-
-
-# ====================================================================== pictures for the docs
-#: docs/screenshots/ pictures of this panel: file -> (throw, time shown [fraction of the swing +
-#: flight], what to show: "page" (the whole page) or "phase" (the phase portrait only))
-DOC_SHOTS = {
-    "throw_studio.png": ("throw1", 0.55, "page"),
-    "throw_phase_portrait.png": ("throw1", 0.0, "phase"),
-}
-
-
-def save_doc_screenshots(out_dir=None, lab=None, browser=None) -> List[Path]:
-    """Regenerate this panel's pictures in docs/screenshots/ (headless Chromium)."""
-    from app.viewer.screenshot import (Browser, hide_notifications, new_session, select_tab, settle, wait_ready,
-                                       wait_until)
-    from app.viewer.server import LabServer
-
-    out_dir = Path(out_dir or Path(__file__).resolve().parents[2] / "docs" / "screenshots")
-    out_dir.mkdir(parents=True, exist_ok=True)
-    own_lab, own_browser = lab is None, browser is None
-    lab = lab or LabServer(port=0, verbose=False)
-    browser = browser or Browser()
-    paths = []
-    try:
-        for filename, (name, fraction, what) in DOC_SHOTS.items():
-            before = set(lab.sessions)
-            lab.initial_robot = "throwing_arm"
-            # the phase portrait alone at twice the pixel density, so that its lines are crisp
-            context = browser.browser.new_context(viewport={"width": 1280, "height": 1000 if what == "page" else 720},
-                                                  device_scale_factor=1 if what == "page" else 2)
-            page = context.new_page()
-            page.goto(lab.url)
-            try:
-                wait_ready(page, "throwing_arm")
-                session = new_session(lab, before)
-                hide_notifications(page)
-                select_tab(page, TITLE)
-                studio = session.state["throw"]["studio"]
-                shown = studio.shown
-                studio.load_config(load_throw_config(name), play=False)
-                wait_until(lambda: studio.shown > shown, what="the Throw studio to show the throw")
-                settle(page, 0.5)
-                studio.frame()
-                studio.show_time(fraction * studio.drawing.end_time())
-                out = out_dir / filename
-                if what == "page":
-                    page.evaluate("() => document.querySelector('.r2-throw-badge')"
-                                  ".scrollIntoView({block: 'start', inline: 'nearest'})")
-                    settle(page, 2.0)
-                    page.screenshot(path=str(out))
-                else:
-                    page.get_by_text("Phase portrait θ̇(θ)").first.scroll_into_view_if_needed()
-                    settle(page, 1.5)
-                    legend = page.locator(".r2-plot-legend", has_text="Phase portrait").first.bounding_box()
-                    plot = page.locator(".uplot").nth(list(studio.plots).index("phase")).bounding_box()
-                    left, top, right = plot["x"] - 4, legend["y"] - 6, plot["x"] + plot["width"] + 2
-                    page.screenshot(path=str(out), clip={"x": left, "y": top, "width": right - left,
-                                                         "height": plot["y"] + plot["height"] - top + 8})
-                paths.append(out)
-            finally:
-                page.context.close()
-    finally:
-        if own_browser:
-            browser.close()
-        if own_lab:
-            lab.stop()
-    return paths

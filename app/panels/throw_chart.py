@@ -16,9 +16,9 @@ from typing import Callable, List, Optional, Sequence, Tuple
 import numpy as np
 
 from app.core.vhc import bernstein
+from app.viewer import SceneGroup
 
 from .throw_plots import JOINT_COLORS
-from .throw_scene import Nodes
 
 FRAME_COLOR = (120, 126, 136)
 GRID_COLOR = (205, 210, 218)
@@ -101,7 +101,7 @@ class BezierChart:
     phase)`` with the value under the pointer (phase "start", "update", "end"), a click calls
     ``on_select(kind, index)``."""
 
-    def __init__(self, nodes: Nodes, rect: Tuple[float, float, float, float], on_drag: DragCallback,
+    def __init__(self, nodes: SceneGroup, rect: Tuple[float, float, float, float], on_drag: DragCallback,
                  on_select: SelectCallback, point_radius: float = 0.028):
         self.nodes = nodes
         self.rect = rect

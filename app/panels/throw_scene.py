@@ -3,20 +3,18 @@ the ball's path during the swing, both flights (true velocity and the thesis's c
 their landing markers and distances, velocity arrows at the release, and the ball itself; and
 a camera that frames the whole throw beside the side panel.
 
-Everything lives under one scene node root per tab (``Nodes``), so that the studio can remove
-exactly what it drew when the robot changes.
+Everything lives under one scene node root per tab (a ``SceneGroup`` of the tab's scene view), so
+that the studio can remove exactly what it drew when the robot changes.
 """
 from __future__ import annotations
 
 import itertools
 import math
-import threading
-import warnings
 from typing import Dict, Optional, Tuple
 
 import numpy as np
 
-from app.scene import arrow as arrow_mesh
+from app.viewer import SceneGroup
 
 from .throw_plots import FLIGHTS, ThrowView, ball_at
 
@@ -26,104 +24,6 @@ BALL_COLOR = (214, 39, 40)
 GROUND_COLOR = (90, 96, 108)
 AXIS_COLOR = (120, 150, 200)
 SWING_COLOR = (23, 150, 160)
-
-
-class Nodes:
-    """Scene nodes of one tab under ``root``, by short name; adding a name again replaces it."""
-
-    def __init__(self, scene, root: str = "/throw"):
-        self.scene = scene
-        self.root = root
-        self._handles: Dict[str, object] = {}
-        self._lock = threading.RLock()
-
-    def _put(self, name: str, handle):
-        # viser replaces a node of the same scene name (the old handle goes inert), so there is
-        # nothing to remove here
-        with self._lock:
-            self._handles[name] = handle
-        return handle
-
-    def get(self, name: str):
-        with self._lock:
-            return self._handles.get(name)
-
-    def path(self, name: str) -> str:
-        return f"{self.root}/{name}"
-
-    def segments(self, name: str, segs, color, width: float = 2.0, visible: bool = True):
-        """Line segments (N, 2, 2 or 3) in the plane z = 0, ``width`` in pixels."""
-        segs = np.asarray(segs, dtype=np.float32)
-        if segs.shape[-1] == 2:
-            segs = np.concatenate([segs, np.zeros(segs.shape[:-1] + (1,), np.float32)], axis=-1)
-        if segs.shape[0] == 0:
-            self.remove(name)
-            return None
-        return self._put(name, self.scene.add_line_segments(self.path(name), segs, colors=tuple(color),
-                                                            thickness=width, thickness_units="screen",
-                                                            visible=visible))
-
-    def polyline(self, name: str, points, color, width: float = 2.0, dashed: bool = False, visible: bool = True):
-        """A polyline through (N, 2) points; ``dashed`` draws every other segment. Non-finite
-        points break the line."""
-        pts = np.asarray(points, dtype=float)
-        segs = np.stack([pts[:-1], pts[1:]], axis=1)
-        keep = np.all(np.isfinite(segs), axis=(1, 2))
-        if dashed:
-            keep &= (np.arange(len(segs)) % 2) == 0
-        return self.segments(name, segs[keep], color, width, visible)
-
-    def sphere(self, name: str, position, radius: float, color, visible: bool = True):
-        pos = np.zeros(3)
-        pos[:len(position)] = position
-        return self._put(name, self.scene.add_icosphere(self.path(name), radius=radius, color=tuple(color),
-                                                        position=tuple(pos), cast_shadow=False,
-                                                        receive_shadow=False, visible=visible))
-
-    def label(self, name: str, text: str, position, anchor: str = "bottom-left", scale: float = 1.0,
-              visible: bool = True):
-        pos = np.zeros(3)
-        pos[:len(position)] = position
-        return self._put(name, self.scene.add_label(self.path(name), text, position=tuple(pos), anchor=anchor,
-                                                    font_screen_scale=scale, visible=visible))
-
-    def arrow(self, name: str, start, vector, color, radius: float = 0.012, visible: bool = True):
-        s = np.zeros(3)
-        s[:len(start)] = start
-        v = np.zeros(3)
-        v[:len(vector)] = vector
-        if np.linalg.norm(v) < 1e-9:
-            self.remove(name)
-            return None
-        mesh = arrow_mesh(s, v, radius)
-        return self._put(name, self.scene.add_mesh_simple(self.path(name), mesh.vertices.astype(np.float32),
-                                                          mesh.faces.astype(np.uint32), color=tuple(color),
-                                                          cast_shadow=False, receive_shadow=False,
-                                                          visible=visible))
-
-    def remove(self, name: str) -> None:
-        with self._lock:
-            handle = self._handles.pop(name, None)
-        if handle is not None:
-            _remove(handle)
-
-    def names(self):
-        with self._lock:
-            return list(self._handles)
-
-    def clear(self, prefix: str = "") -> None:
-        for name in self.names():
-            if name.startswith(prefix):
-                self.remove(name)
-
-
-def _remove(handle) -> None:
-    with warnings.catch_warnings():       # viser warns about nodes already replaced or removed
-        warnings.simplefilter("ignore")
-        try:
-            handle.remove()
-        except Exception:     # already gone (its parent was removed, or the tab closed)
-            pass
 
 
 # ====================================================================== camera
@@ -172,7 +72,7 @@ class ThrowDrawing:
     """The throw's overlays (see the module docstring); ``show(view)`` draws a throw, ``at(t)``
     places the ball (and returns the arm's angles) at time t of the animation."""
 
-    def __init__(self, nodes: Nodes, shoulder_height: float, ball_radius: float = 0.035):
+    def __init__(self, nodes: SceneGroup, shoulder_height: float, ball_radius: float = 0.035):
         self.nodes = nodes
         self.shoulder = np.array([0.0, shoulder_height])
         self.ball_radius = ball_radius

@@ -30,6 +30,8 @@ import threading
 from typing import Callable, Optional
 
 from app.core.errors import UserError
+from app.core.expressions import ExpressionError, excerpt, parse_expression
+from app.core.robot_model import ParameterError
 
 COMMIT_DELAY = 0.6       # seconds without a keystroke that count as "done typing"
 
@@ -105,3 +107,30 @@ class CommittedField:
         with self._lock:
             self._good_text = text
         self.commit(value)
+
+
+def parse_parameter(robot, name: str, text: str) -> float:
+    """The value typed into a parameter field: a number or a constant expression (``0.5``, ``1/3``,
+    ``pi/4``), finite, and not negative for masses, inertias, stiffnesses and friction.
+
+    >>> from app.core.robot import load_robot
+    >>> parse_parameter(load_robot("planar_2r"), "m1", " 2.5 ")      # exact: the number typed
+    2.5
+    >>> parse_parameter(load_robot("planar_2r"), "m1", "-1")
+    Traceback (most recent call last):
+    ...
+    app.core.robot_model.ParameterError: m1: a mass must not be negative (got -1)
+    """
+    text = (text or "").strip()
+    if not text:
+        raise ParameterError(f"{name}: empty value; type a number")
+    try:
+        value = float(parse_expression(text, allowed_names=()))
+    except (ExpressionError, TypeError, ValueError):
+        raise ParameterError(f"{name}: {excerpt(text)} is not a number") from None
+    return robot.check_parameter_value(name, value)
+
+
+def format_number(value: float) -> str:
+    """Short text of a number for a field: ``0.5``, ``9.81``, ``1e-06``."""
+    return f"{value:.6g}"

@@ -157,8 +157,7 @@ class _Limits:
 
 def limits_of(handle) -> _Limits:
     """The declared limits of a viser widget handle (those it does not have are None)."""
-    props = handle._impl.props      # viser keeps min/max/step/options in the handle's props
-    return _Limits(*(getattr(props, name, None) for name in ("min", "max", "step", "options")))
+    return _Limits(*(getattr(handle, name, None) for name in ("min", "max", "step", "options")))
 
 
 def _number_problem(value, low, high, step) -> Optional[str]:
@@ -207,7 +206,7 @@ def update_problem(handle, updates: Mapping[str, Any]) -> Optional[str]:
     ``value``; its type must match the widget's current value."""
     if set(updates) != {"value"}:
         return "only a widget's value may be changed"
-    value, current = updates["value"], handle._impl.value
+    value, current = updates["value"], handle.value
     if isinstance(current, bool) != isinstance(value, bool):
         return f"{str(value)[:20]!r} is not {'true or false' if isinstance(current, bool) else 'accepted'}"
     if isinstance(current, str) != isinstance(value, str):
@@ -236,7 +235,7 @@ def guard_widget_updates(gui_api, refused: Callable[[Any, str], None]) -> None:
         if handle is not None and not handle._impl.removed:
             reason = update_problem(handle, message.updates)
             if reason is not None:
-                interface.queue_message(_messages.GuiUpdateMessage(message.uuid, {"value": handle._impl.value}))
+                interface.queue_message(_messages.GuiUpdateMessage(message.uuid, {"value": handle.value}))
                 refused(handle, reason)
                 return
         await apply_update(client_id, message)
@@ -247,4 +246,4 @@ def guard_widget_updates(gui_api, refused: Callable[[Any, str], None]) -> None:
 
 def widget_name(handle) -> str:
     """The label a student sees on a widget (for messages)."""
-    return str(getattr(handle._impl.props, "label", "") or "a field")[:60]
+    return str(getattr(handle, "label", "") or "a field")[:60]

@@ -1,10 +1,12 @@
 """The robot in one browser tab's 3D scene: draws an ``app.scene.RobotDrawing`` with viser, moves
 it, highlights bodies and joints, shows ghosts and overlays (markers, lines, trajectories, arrows,
-labels). Panels reach it as ``session.scene``; see docs/panels.md.
+labels), and a panel's own named drawings (``group``). Panels reach it as ``session.scene`` and
+draw in the 3D view only through it; see docs/panels.md.
 """
 from __future__ import annotations
 
 import threading
+import warnings
 from typing import Callable, Dict, Iterable, List, Optional, Tuple
 
 import numpy as np
@@ -356,7 +358,19 @@ class SceneView:
             for name in list(self._overlays):
                 self.remove_overlay(name)
 
+    # ------------------------------------------------------------------ a panel's own nodes
+    def group(self, root: str) -> "SceneGroup":
+        """A ``SceneGroup``: named drawings of a panel under the scene path ``root`` (e.g.
+        ``/throw``), which the panel removes with ``clear()``."""
+        return SceneGroup(self.scene, root)
+
     # ------------------------------------------------------------------ camera
+    @property
+    def camera(self):
+        """The browser's camera (viser's ``CameraHandle``): read its pose and image size; set it
+        with ``point_camera``."""
+        return self.client.camera
+
     def frame_camera(self) -> None:
         """Point the camera at the robot as drawn now (with a margin for moving it); planar robots
         square-on to their plane (see ``point_camera`` for when it happens)."""
@@ -411,6 +425,106 @@ class SceneView:
         pending = self._pending_camera
         if pending is not None:
             self.point_camera(pending)
+
+
+class SceneGroup:
+    """Scene nodes of one tab under ``root``, by short name; adding a name again replaces it
+    (``SceneView.group``: a panel's own drawings, e.g. the Throw studio's, beside the robot).
+    Points may be given in the plane z = 0 (x, y) or in space."""
+
+    def __init__(self, scene, root: str = "/throw"):
+        self.scene = scene
+        self.root = root
+        self._handles: Dict[str, object] = {}
+        self._lock = threading.RLock()
+
+    def _put(self, name: str, handle):
+        # viser replaces a node of the same scene name (the old handle goes inert), so there is
+        # nothing to remove here
+        with self._lock:
+            self._handles[name] = handle
+        return handle
+
+    def get(self, name: str):
+        with self._lock:
+            return self._handles.get(name)
+
+    def path(self, name: str) -> str:
+        return f"{self.root}/{name}"
+
+    def segments(self, name: str, segs, color, width: float = 2.0, visible: bool = True):
+        """Line segments (N, 2, 2 or 3) in the plane z = 0, ``width`` in pixels."""
+        segs = np.asarray(segs, dtype=np.float32)
+        if segs.shape[-1] == 2:
+            segs = np.concatenate([segs, np.zeros(segs.shape[:-1] + (1,), np.float32)], axis=-1)
+        if segs.shape[0] == 0:
+            self.remove(name)
+            return None
+        return self._put(name, self.scene.add_line_segments(self.path(name), segs, colors=tuple(color),
+                                                            thickness=width, thickness_units="screen",
+                                                            visible=visible))
+
+    def polyline(self, name: str, points, color, width: float = 2.0, dashed: bool = False, visible: bool = True):
+        """A polyline through (N, 2) points; ``dashed`` draws every other segment. Non-finite
+        points break the line."""
+        pts = np.asarray(points, dtype=float)
+        segs = np.stack([pts[:-1], pts[1:]], axis=1)
+        keep = np.all(np.isfinite(segs), axis=(1, 2))
+        if dashed:
+            keep &= (np.arange(len(segs)) % 2) == 0
+        return self.segments(name, segs[keep], color, width, visible)
+
+    def sphere(self, name: str, position, radius: float, color, visible: bool = True):
+        pos = np.zeros(3)
+        pos[:len(position)] = position
+        return self._put(name, self.scene.add_icosphere(self.path(name), radius=radius, color=tuple(color),
+                                                        position=tuple(pos), cast_shadow=False,
+                                                        receive_shadow=False, visible=visible))
+
+    def label(self, name: str, text: str, position, anchor: str = "bottom-left", scale: float = 1.0,
+              visible: bool = True):
+        pos = np.zeros(3)
+        pos[:len(position)] = position
+        return self._put(name, self.scene.add_label(self.path(name), text, position=tuple(pos), anchor=anchor,
+                                                    font_screen_scale=scale, visible=visible))
+
+    def arrow(self, name: str, start, vector, color, radius: float = 0.012, visible: bool = True):
+        s = np.zeros(3)
+        s[:len(start)] = start
+        v = np.zeros(3)
+        v[:len(vector)] = vector
+        if np.linalg.norm(v) < 1e-9:
+            self.remove(name)
+            return None
+        mesh = arrow(s, v, radius)
+        return self._put(name, self.scene.add_mesh_simple(self.path(name), mesh.vertices.astype(np.float32),
+                                                          mesh.faces.astype(np.uint32), color=tuple(color),
+                                                          cast_shadow=False, receive_shadow=False,
+                                                          visible=visible))
+
+    def remove(self, name: str) -> None:
+        with self._lock:
+            handle = self._handles.pop(name, None)
+        if handle is not None:
+            _remove(handle)
+
+    def names(self):
+        with self._lock:
+            return list(self._handles)
+
+    def clear(self, prefix: str = "") -> None:
+        for name in self.names():
+            if name.startswith(prefix):
+                self.remove(name)
+
+
+def _remove(handle) -> None:
+    with warnings.catch_warnings():       # viser warns about nodes already replaced or removed
+        warnings.simplefilter("ignore")
+        try:
+            handle.remove()
+        except Exception:     # already gone (its parent was removed, or the tab closed)
+            pass
 
 
 def _nice_cell(step: float) -> float:

@@ -21,6 +21,7 @@ import viser
 
 from app.core.robot import RobotModel, list_robot_names, load_robot, robot_path
 from app.viewer.guard import HandshakePolicy, guard_widget_updates, handshake_checked, widget_name
+from app.viewer.panel_api import PanelRegistry
 from app.viewer.session import Session
 
 DEFAULT_ROBOT = "planar_2r"
@@ -75,10 +76,12 @@ class LabServer:
     """Serves the lab on ``host:port`` (port 0 picks a free one). Robots are loaded once and shared
     by all sessions (reloaded when their file changes); each tab has its own state. Requests and
     widget values are checked as app/viewer/guard.py says (beyond loopback, ``url`` holds the
-    per-server token)."""
+    per-server token). ``panels`` are the page's tabs (``app.panels.registry()``; none when not
+    given: the viewer does not know the panels)."""
 
     def __init__(self, host: str = "127.0.0.1", port: int = 8080, robot: Optional[str] = None,
-                 verbose: bool = True):
+                 verbose: bool = True, panels: PanelRegistry = PanelRegistry()):
+        self.panels = panels
         self._robots: Dict[str, Tuple[float, RobotModel]] = {}
         self._catalog: Dict[str, Tuple[float, RobotInfo]] = {}
         self._lock = threading.Lock()

@@ -2,8 +2,8 @@
 
 The page is built per tab: a header (robot picker, description, pinocchio check badge, progress
 bars), the joint-coordinate sliders, the parameter fields, display options, and a tab group with
-one tab per panel (app/panels). Panels receive this ``Session``; docs/panels.md documents what
-they may use.
+one tab per panel of the server's registry (``LabServer.panels``). Panels receive this ``Session``
+and use only its ``PanelSession`` interface (app/viewer/panel_api.py, docs/panels.md).
 """
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import math
 import threading
 import time
 import traceback
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import Future
 from pathlib import Path
 from typing import Callable, Dict, List, Mapping, Optional
 
@@ -21,12 +21,13 @@ import numpy as np
 
 from app.core.dynamics import derive
 from app.core.errors import UserError
-from app.core.expressions import ExpressionError, excerpt, parse_expression
 from app.core.numeric import NumericModel, ParameterError, cross_check
-from app.panels import PanelSpec, discover_panels_with_errors
 from app.scene import RobotDrawing, default_q
 from app.viewer import mathml, url_state
-from app.viewer.fields import CommittedField
+from app.viewer.coalescer import Coalescer
+from app.viewer.fields import CommittedField, format_number, parse_parameter
+from app.viewer.jobs import JobRunner
+from app.viewer.panel_api import JobCancelled, PanelSpec  # noqa: F401 (JobCancelled: the old place)
 from app.viewer.presenter import Presenter
 from app.viewer.scene_view import SceneView
 
@@ -38,74 +39,6 @@ GROUP_LABELS = {"exam": "Exam robots", "throwing": "Throwing arm", "catching": "
                 "other": "Other robots"}
 ALL_GROUPS = "All robots"
 URL_WAIT = 20.0        # seconds to wait for the page to report its address before the default page
-
-
-class JobCancelled(Exception):
-    """Raised by a background job's ``progress`` when the browser tab that started it went away."""
-
-
-def parse_parameter(robot, name: str, text: str) -> float:
-    """The value typed into a parameter field: a number or a constant expression (``0.5``, ``1/3``,
-    ``pi/4``), finite, and not negative for masses, inertias, stiffnesses and friction.
-
-    >>> from app.core.robot import load_robot
-    >>> parse_parameter(load_robot("planar_2r"), "m1", " 2.5 ")      # exact: the number typed
-    2.5
-    >>> parse_parameter(load_robot("planar_2r"), "m1", "-1")
-    Traceback (most recent call last):
-    ...
-    app.core.robot_model.ParameterError: m1: a mass must not be negative (got -1)
-    """
-    text = (text or "").strip()
-    if not text:
-        raise ParameterError(f"{name}: empty value; type a number")
-    try:
-        value = float(parse_expression(text, allowed_names=()))
-    except (ExpressionError, TypeError, ValueError):
-        raise ParameterError(f"{name}: {excerpt(text)} is not a number") from None
-    return robot.check_parameter_value(name, value)
-
-
-def format_number(value: float) -> str:
-    """Short text of a number for a field: ``0.5``, ``9.81``, ``1e-06``."""
-    return f"{value:.6g}"
-
-
-class Coalescer:
-    """Runs ``fn()`` in a worker thread after ``request()``, merging requests that arrive while it
-    runs, at most once per ``interval`` seconds: a slider dragged at any speed causes at most one
-    pending update, always with the latest state."""
-
-    def __init__(self, fn: Callable[[], None], interval: float = 0.0, on_error=None):
-        self.fn, self.interval, self.on_error = fn, interval, on_error
-        self._lock = threading.Lock()
-        self._pending = False
-        self._running = False
-
-    def request(self) -> None:
-        with self._lock:
-            self._pending = True
-            if self._running:
-                return
-            self._running = True
-        threading.Thread(target=self._loop, daemon=True).start()
-
-    def _loop(self) -> None:
-        while True:
-            with self._lock:
-                if not self._pending:
-                    self._running = False
-                    return
-                self._pending = False
-            start = time.perf_counter()
-            try:
-                self.fn()
-            except Exception as exc:   # keep the worker alive; report
-                if self.on_error:
-                    self.on_error(exc)
-            rest = self.interval - (time.perf_counter() - start)
-            if rest > 0:
-                time.sleep(rest)
 
 
 class Session:
@@ -135,13 +68,15 @@ class Session:
         self._started = threading.Event()       # the first robot was asked for
         self._lock = threading.RLock()
         self._build_lock = threading.RLock()     # one thread builds or clears the panels at a time
-        self._executor = ThreadPoolExecutor(max_workers=2, thread_name_prefix=f"session{client.client_id}")
+        self._jobs = JobRunner(self.gui, self.notify, self._internal_error, lab.limited, lambda: self.closed,
+                               self._build_lock, ORDER_PROGRESS, name=f"session{client.client_id}")
         self._listeners: Dict[str, List] = {"robot": [], "parameters": [], "q": [], "presenter": []}
         self._owner = threading.local()
         self._sliders: List = []
         self._param_fields: Dict[str, CommittedField] = {}
         self._tabs = None
         self._tab_handles: Dict[str, object] = {}
+        self._tab_boxes: Dict[str, object] = {}   # panel name -> the container in its tab (_empty_tab)
         self._tab_titles: List[str] = []
         self._panel_errors: List[str] = []
         self._pose_job = Coalescer(self._apply_pose, 0.0, self._internal_error)
@@ -161,6 +96,19 @@ class Session:
     def ranges(self) -> Dict[str, tuple]:
         """Slider range (lo, hi) of every coordinate."""
         return dict(self.drawing.ranges) if self.drawing else {}
+
+    @property
+    def tab_id(self) -> int:
+        """A number for this browser tab (names threads and logs)."""
+        return self.client.client_id
+
+    def robot_named(self, name: str):
+        """The ``RobotModel`` of a shipped robot or robot file (shared by all tabs; not shown)."""
+        return self.lab.robot(name)
+
+    def atomic(self):
+        """``with session.atomic():`` the widget and scene updates inside reach the browser together."""
+        return self.client.atomic()
 
     def set_q(self, q) -> None:
         """Move the robot (scene and sliders) to coordinates q."""
@@ -222,11 +170,7 @@ class Session:
         next ``progress`` call raises ``JobCancelled`` and the job ends quietly (after a Cancel:
         ``on_cancel()``, then a notification). The returned future's ``cancel_job()`` does what the
         button does."""
-        cancelled = threading.Event()
-        future = self._executor.submit(self._job, self.lab.limited(fn), progress_title, on_done, cancelled,
-                                       on_cancel)
-        future.cancel_job = cancelled.set
-        return future
+        return self._jobs.submit(fn, progress_title, on_done, on_cancel)
 
     def math_html(self, latex: str, display: bool = True) -> str:
         """HTML (for ``gui.add_html``) of a LaTeX formula, typeset as MathML with the math font."""
@@ -310,9 +254,9 @@ class Session:
                 return
             self._load_selected()
 
-        specs, errors = discover_panels_with_errors()
-        self._panel_specs = specs
-        for err in errors:
+        registry = self.lab.panels
+        self._panel_specs = list(registry.specs)
+        for err in registry.errors:
             self.notify("A panel failed to load", err.splitlines()[0], error=True)
         # listen to the page's reports only now that everything they use is here; a report that
         # came before (a fast client: the field exists in the page since add_text) is read here
@@ -689,6 +633,7 @@ class Session:
                 self._tabs.remove()
             self._tabs = self.gui.add_tab_group(order=ORDER_TABS)
             self._tab_handles = {s.name: self._tabs.add_tab(s.title) for s in specs}
+            self._tab_boxes = {}
             self._tab_titles = titles
             with self._lock:
                 self._reselect_tab = True
@@ -697,19 +642,18 @@ class Session:
                 return
             if not fresh and not spec.rebuild:
                 continue
-            tab = self._tab_handles[spec.name]
             self._drop_listeners(spec.name)
-            self._empty_tab(tab)
+            box = self._empty_tab(spec.name)
             self._owner.name = spec.name
             try:
-                with tab:
+                with box:
                     spec.build(self)
             except UserError as exc:
-                with tab:
+                with box:
                     self.gui.add_markdown(f"**{spec.title}**: {exc}")
             except Exception:
                 detail = traceback.format_exc(limit=4)
-                with tab:
+                with box:
                     self.gui.add_markdown(f"**{spec.title}** could not be built for this robot "
                                           f"(internal error):\n\n```\n{detail[-1200:]}\n```")
                 self.notify(f"Panel {spec.title} failed", detail.strip().splitlines()[-1], error=True)
@@ -724,19 +668,22 @@ class Session:
             return
         try:
             for spec in self._panel_specs:
-                tab = self._tab_handles.get(spec.name)
-                if tab is None or not spec.rebuild:
+                if spec.name not in self._tab_handles or not spec.rebuild:
                     continue
-                self._empty_tab(tab)
-                with tab:
+                with self._empty_tab(spec.name):
                     self.gui.add_html(mathml.label_html(f"Deriving the model of {robot.title} ..."))
         finally:
             self._build_lock.release()
 
-    @staticmethod
-    def _empty_tab(tab) -> None:
-        for child in tuple(tab._children.values()):   # viser has no public clear
-            child.remove()
+    def _empty_tab(self, name: str):
+        """An empty container in the tab of panel ``name``: everything a panel adds goes into one
+        label-less folder (viser draws no header or border for it), removed with its contents."""
+        old = self._tab_boxes.pop(name, None)
+        if old is not None:
+            old.remove()
+        with self._tab_handles[name]:
+            box = self._tab_boxes[name] = self.gui.add_folder(None)
+        return box
 
     @staticmethod
     def _safe_applies(spec: PanelSpec, robot) -> bool:
@@ -776,70 +723,10 @@ class Session:
         last = detail.strip().splitlines()[-1] if detail.strip() else repr(exc)
         self.notify(f"Internal error{where}", last, error=True)
 
-    def _job(self, fn, title: str, on_done, cancelled: threading.Event, on_cancel=None):
-        state = {"bar": None, "label": None, "button": None, "fraction": 0.0, "message": "", "done": False}
-        lock = threading.Lock()
-        def show():
-            with lock:
-                if state["done"] or state["bar"] is not None:
-                    return
-                state["label"] = self.gui.add_html(self._progress_html(title, state["message"]),
-                                                   order=ORDER_PROGRESS)
-                state["bar"] = self.gui.add_progress_bar(max(0.0, min(100.0, 100 * state["fraction"])),
-                                                         animated=True, order=ORDER_PROGRESS + 0.1)
-                button = self.gui.add_button("Cancel", color="gray", order=ORDER_PROGRESS + 0.2,
-                                             hint=f"stop: {title}")
-                button.on_click(lambda _: cancelled.set())
-                state["button"] = button
-
-        timer = threading.Timer(0.3, show)
-        timer.daemon = True
-        timer.start()
-
-        def progress(fraction: float, message: str = "") -> None:
-            if self.closed or cancelled.is_set():
-                raise JobCancelled(title)
-            with lock:
-                state["fraction"], state["message"] = float(fraction), message
-                if state["bar"] is not None:
-                    state["bar"].value = max(0.0, min(100.0, 100 * float(fraction)))
-                    state["label"].content = self._progress_html(title, message)
-
-        try:
-            result = fn(progress)
-            if on_done is not None:
-                with self._build_lock:      # panels are not rebuilt under a callback's feet
-                    on_done(result)
-            return result
-        except JobCancelled:
-            if cancelled.is_set() and not self.closed:      # the student's Cancel (else the tab went away)
-                try:
-                    if on_cancel is not None:
-                        on_cancel()
-                finally:
-                    self.notify(f"{title}: cancelled")
-        except UserError as exc:
-            self.notify(title, str(exc), error=True)
-        except Exception:
-            self._internal_error()
-        finally:
-            timer.cancel()
-            with lock:
-                state["done"] = True
-                for key in ("bar", "label", "button"):
-                    if state[key] is not None:
-                        state[key].remove()
-        return None
-
-    @staticmethod
-    def _progress_html(title: str, message: str) -> str:
-        return (f'<div style="font-size:0.85em;color:#333">{html.escape(title)}'
-                f'{" — " + html.escape(message) if message else ""}</div>')
-
     def close(self) -> None:
         """The browser tab went away: stop background work and GUI updates."""
         with self._lock:
             self.closed = True
             for field in self._param_fields.values():
                 field.close()
-        self._executor.shutdown(wait=False, cancel_futures=True)
+        self._jobs.shutdown()
