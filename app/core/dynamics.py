@@ -224,6 +224,16 @@ def cache_entry_path(robot: RobotModel, known: Optional[Sequence[str]] = None) -
     return model_cache.entry_path("|".join(_envelope(robot, known).values()))
 
 
+def is_derived(robot: RobotModel, known: Optional[Sequence[str]] = None) -> bool:
+    """Whether ``derive(robot, known=known)`` would be served by the memory or disk cache
+    (without checking that a disk entry is intact)."""
+    with _lock:
+        if (robot.content_hash or repr(robot), _known_key(known)) in _memory:
+            return True
+    path = cache_entry_path(robot, known)
+    return path is not None and path.is_file()
+
+
 def forget_derivations() -> None:
     """Empty the in-memory caches of derivations and displayed coefficients (not the disk cache):
     the next ``derive`` works from scratch or from disk. Used by honest (cold) benchmarks."""

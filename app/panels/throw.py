@@ -13,6 +13,7 @@ throw that could be carried out stays on display.
 """
 from __future__ import annotations
 
+import dataclasses
 import html
 import math
 import re
@@ -28,7 +29,7 @@ from app.core.errors import UserError
 from app.core.expressions import ExpressionError, excerpt, parse_expression
 from app.core.vhc import (DEFAULT_EVALUATIONS, REQUIRED_PARAMETERS, ThrowConfig, ThrowingArm, ThrowOptimizer, ThrowSpec,
                           elevate_bezier, load_throw_config, parse_throw_config, simulate_full)
-from app.viewer import Coalescer, CommittedField
+from app.viewer import Coalescer, CommittedField, in_worker
 
 from .throw_chart import BezierChart
 from .throw_closed_loop import ClosedLoopTab
@@ -132,6 +133,21 @@ def parse_stiffness(text: str) -> float:
     if value < 0:
         raise UserError(f"k: the wrist spring must not be negative (got {value:g})")
     return value
+
+
+def optimize_and_verify(robot, values, objective: str, seed: int, budget: int, progress):
+    """The Optimize button's work: the optimizer's best throw, then its two full-dynamics
+    simulations (progress 0-0.9, then 0.9-1). Returns the result without its arm, throw and
+    feasibility (compiled functions that do not leave a worker process), and the simulations."""
+    arm = ThrowingArm(robot, params=values)
+    result = ThrowOptimizer(arm, objective=objective).run(seed=seed, evaluations=budget, progress=progress)
+    sims = []
+    for k, controller in enumerate(("feedforward", "computed_torque")):
+        stage = f"full dynamics: {controller.replace('_', ' ')}"
+        progress(0.9 + 0.05 * k, stage)
+        sims.append(simulate_full(result.throw, controller,
+                                  progress=lambda f, m, k=k, stage=stage: progress(0.9 + 0.05 * (k + f), stage)))
+    return dataclasses.replace(result, throw=None, feasibility=None), sims
 
 
 class ThrowStudio:
@@ -768,16 +784,8 @@ class ThrowStudio:
                     self.opt_progress.value = max(self.opt_progress.value, 100 * 0.85 * fraction)
                     self.opt_status.content = self._status(message)
             threading.Thread(target=tick, daemon=True).start()
-            try:
-                result = ThrowOptimizer(arm, objective=objective).run(seed=seed, evaluations=budget,
-                                                                              progress=report)
-                sims = []
-                for k, controller in enumerate(("feedforward", "computed_torque")):
-                    stage = f"full dynamics: {controller.replace('_', ' ')}"
-                    report(0.9 + 0.05 * k, stage)
-                    sims.append(simulate_full(result.throw, controller,
-                                              progress=lambda f, m, k=k, stage=stage: report(0.9 + 0.05 * (k + f), stage)))
-                return result, sims
+            try:       # in a worker process of the server (app/viewer/worker.py)
+                return in_worker(optimize_and_verify, arm.robot, arm.values, objective, seed, budget, progress=report)
             finally:
                 done_event.set()
                 self._optimizing = False

@@ -16,6 +16,7 @@ _PUBLIC = {
     "Coalescer": "coalescer", "parse_parameter": "fields", "CommittedField": "fields",
     "AnswerBox": "answer_box",
     "mathml": "mathml", "parse_exercise_ids": "sheets", "sheet_files": "sheets",
+    "in_worker": "worker",
 }
 __all__ = sorted(_PUBLIC)
 

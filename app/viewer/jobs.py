@@ -12,6 +12,7 @@ from typing import Callable, Optional
 
 from app.core.errors import UserError
 from app.viewer.panel_api import JobCancelled
+from app.viewer.worker import job_context
 
 SHOW_AFTER = 0.3        # seconds before a job's progress bar appears
 
@@ -22,11 +23,14 @@ class JobRunner:
     ``gui`` gets the progress bars (at ``order``); ``notify(title, body, error=)`` and
     ``internal_error()`` report; ``limit(fn)`` wraps a job before it runs (the server's job slots,
     ``LabServer.limited``); ``closed()`` tells whether the tab went away; callbacks ``on_done`` run
-    under ``callback_lock`` (the session's panel-building lock)."""
+    under ``callback_lock`` (the session's panel-building lock). Inside ``fn``,
+    ``app.viewer.in_worker(f, *args, progress=progress)`` runs a heavy ``f`` in one of ``workers``'
+    processes (app/viewer/worker.py); a Cancel or a closed tab kills it there."""
 
     def __init__(self, gui, notify: Callable, internal_error: Callable, limit: Callable[[Callable], Callable],
-                 closed: Callable[[], bool], callback_lock, order: float, name: str = "session"):
+                 closed: Callable[[], bool], callback_lock, order: float, name: str = "session", workers=None):
         self.gui, self.notify, self.internal_error, self.limit = gui, notify, internal_error, limit
+        self.workers = workers      # the server's WorkerPool: ``in_worker`` inside a job runs there
         self.closed, self.callback_lock, self.order = closed, callback_lock, order
         self._executor = ThreadPoolExecutor(max_workers=2, thread_name_prefix=name)
 
@@ -53,7 +57,8 @@ class JobRunner:
             bar.update(fraction, message)
 
         try:
-            result = fn(progress)
+            with job_context(self.workers, lambda: self.closed() or cancelled.is_set()):
+                result = fn(progress)
             if on_done is not None:
                 with self.callback_lock:      # panels are not rebuilt under a callback's feet
                     on_done(result)

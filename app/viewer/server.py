@@ -23,6 +23,7 @@ from app.core.robot import RobotModel, list_robot_names, load_robot, robot_path
 from app.viewer.guard import HandshakePolicy, guard_widget_updates, handshake_checked, widget_name
 from app.viewer.panel_api import PanelRegistry
 from app.viewer.session import Session
+from app.viewer.worker import WorkerPool
 
 DEFAULT_ROBOT = "planar_2r"
 
@@ -93,6 +94,7 @@ class LabServer:
         self.verbose = verbose
         self.max_jobs = max(1, os.cpu_count() or 1)
         self._job_slots = threading.BoundedSemaphore(self.max_jobs)
+        self.workers = WorkerPool(self.max_jobs)     # heavy jobs' processes (app/viewer/worker.py)
         self.policy = HandshakePolicy(host)
         with self._quiet(), handshake_checked(self.policy):
             self.viser = viser.ViserServer(host=host, port=port, label="Robotics II Lab", verbose=verbose)
@@ -110,6 +112,7 @@ class LabServer:
     def stop(self) -> None:
         for session in list(self.sessions.values()):
             session.close()
+        self.workers.close()
         with self._quiet():
             self.viser.stop()
 
@@ -152,7 +155,7 @@ class LabServer:
     def limited(self, fn: Callable) -> Callable:
         """``fn(progress, ...)`` that first waits for one of the server's ``max_jobs`` job slots
         (one per core: more heavy jobs at once only slow every tab down), saying so through
-        ``progress`` while it waits.
+        ``progress`` while it waits. Heavy work inside runs in ``workers``, one process per slot.
 
         >>> lab = LabServer(port=0, verbose=False)
         >>> lab.limited(lambda progress, x: 2 * x)(lambda f, m="": None, 21)

@@ -19,7 +19,7 @@ from typing import Callable, Dict, List, Mapping, Optional
 
 import numpy as np
 
-from app.core.dynamics import derive
+from app.core.dynamics import derive, is_derived
 from app.core.errors import UserError
 from app.core.numeric import NumericModel, ParameterError, cross_check
 from app.scene import RobotDrawing, default_q
@@ -30,6 +30,7 @@ from app.viewer.jobs import JobRunner
 from app.viewer.panel_api import JobCancelled, PanelSpec  # noqa: F401 (JobCancelled: the old place)
 from app.viewer.presenter import Presenter
 from app.viewer.scene_view import SceneView
+from app.viewer.worker import derive_in_worker, in_worker
 
 # order of the page's fixed elements (panels' tab group comes last)
 ORDER_STYLE, ORDER_PICKER, ORDER_INFO, ORDER_BADGE, ORDER_PROGRESS = 0, 1, 3, 4, 5
@@ -69,7 +70,8 @@ class Session:
         self._lock = threading.RLock()
         self._build_lock = threading.RLock()     # one thread builds or clears the panels at a time
         self._jobs = JobRunner(self.gui, self.notify, self._internal_error, lab.limited, lambda: self.closed,
-                               self._build_lock, ORDER_PROGRESS, name=f"session{client.client_id}")
+                               self._build_lock, ORDER_PROGRESS, name=f"session{client.client_id}",
+                               workers=getattr(lab, "workers", None))
         self._listeners: Dict[str, List] = {"robot": [], "parameters": [], "q": [], "presenter": []}
         self._owner = threading.local()
         self._sliders: List = []
@@ -462,7 +464,11 @@ class Session:
         self._write_url()
 
         def work(progress):
-            return derive(robot, progress=progress)
+            if not is_derived(robot):       # a cold derivation runs in a worker process
+                dynamics = in_worker(derive_in_worker, robot, progress=progress)
+                if dynamics is not None:
+                    return dynamics
+            return derive(robot, progress=progress)     # from the cache the worker wrote
 
         def cancelled():
             with self._lock:
