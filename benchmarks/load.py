@@ -70,6 +70,53 @@ def _rss_mb(pid: int) -> float:
     return float("nan")
 
 
+def _children(pid: int) -> List[int]:
+    """Process ids of ``pid``'s children (the server's worker processes)."""
+    out = []
+    for task in Path(f"/proc/{pid}/task").glob("*"):
+        try:
+            out += [int(c) for c in (task / "children").read_text().split()]
+        except (OSError, ValueError):
+            pass
+    return out
+
+
+def _cpu_s(pid: int, children: bool = False) -> float:
+    """CPU seconds (user + system) of a process; with ``children`` those of its children that
+    ended (and were waited for) too."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except (OSError, IndexError):
+        return 0.0
+    ticks = os.sysconf("SC_CLK_TCK")
+    used = int(fields[11]) + int(fields[12]) + ((int(fields[13]) + int(fields[14])) if children else 0)
+    return used / ticks
+
+
+class CpuMeter:
+    """CPU seconds of the server's own process and of its worker processes (those alive, plus
+    those that ended), between ``start()`` and ``stop()``."""
+
+    def __init__(self, pid: int):
+        self.pid, self.seen = pid, {}
+
+    def _sample(self):
+        for child in _children(self.pid):
+            self.seen[child] = _cpu_s(child)
+        own = _cpu_s(self.pid)
+        workers = (_cpu_s(self.pid, children=True) - own
+                   + sum(v for c, v in self.seen.items() if Path(f"/proc/{c}").exists()))
+        return own, workers
+
+    def start(self):
+        self.seen = {}
+        self.begin = self._sample()
+
+    def stop(self):
+        end = self._sample()
+        self.server, self.workers = end[0] - self.begin[0], end[1] - self.begin[1]
+
+
 class Client:
     """One tab: a websocket, a reader thread decoding viser's frames, the widgets by label."""
 
@@ -309,9 +356,14 @@ def main(argv=None) -> int:
     peak = [0.0]
     sampling = threading.Event()
 
+    worker_peak = [0.0]
+    meter = CpuMeter(server.pid)
+
     def sample_rss():
         while not sampling.wait(0.5):
             peak[0] = max(peak[0], _rss_mb(server.pid))
+            worker_peak[0] = max(worker_peak[0], sum(_rss_mb(c) for c in _children(server.pid)))
+            meter.seen.update({c: _cpu_s(c) for c in _children(server.pid)})
 
     threading.Thread(target=sample_rss, daemon=True).start()
     clients: List[LightClient] = []
@@ -324,6 +376,8 @@ def main(argv=None) -> int:
             except OSError:
                 time.sleep(0.1)
         rss["started"] = _rss_mb(server.pid)
+        meter.start()
+        own0 = time.process_time()
         t = time.perf_counter()
         for i in range(args.clients):
             clients.append(LightClient(port, i, args.seed))
@@ -334,9 +388,18 @@ def main(argv=None) -> int:
         threads = [threading.Thread(target=c.run, daemon=True) for c in clients]
         for th in threads:
             th.start()
+        meter.stop()
+        connect_cpu = (meter.server, meter.workers)
+        meter.start()
+        baseline_load = os.getloadavg()[0]
         time.sleep(args.baseline)
+        meter.stop()
+        baseline_cpu = (meter.server, meter.workers, time.process_time() - own0)
         for c in clients:
             c.phase = "loaded"
+        meter.start()
+        own1 = time.process_time()
+        loaded_wall = time.perf_counter()
         stop = threading.Event()
         log = {"derivations": [], "optimizer": [], "towers": 0, "tower_refusals": 0}
         heavy = [threading.Thread(target=fn, args=(port, stop, log), daemon=True)
@@ -350,6 +413,9 @@ def main(argv=None) -> int:
             c.stop.set()
         for th in threads + heavy:
             th.join(LOST_AFTER + 130)
+        meter.stop()
+        loaded_wall = time.perf_counter() - loaded_wall
+        loaded_cpu = (meter.server, meter.workers, time.process_time() - own1)
         rss["end"] = _rss_mb(server.pid)
         load1 = os.getloadavg()[0]
         for c in clients:
@@ -377,7 +443,13 @@ def main(argv=None) -> int:
               f"(over {sum(len(c.link1) for c in clients)} received)")
         print(f"server RSS: {rss['connected']:.0f} MB with the clients connected, peak {peak[0]:.0f} MB, "
               f"{rss['end']:.0f} MB at the end, {rss['after']:.0f} MB 5 s after the clients left")
-        print(f"load average (1 min) {load0:.1f} at the loaded phase's start, {load1:.1f} at its end; "
+        print(f"server's worker processes: peak RSS {worker_peak[0]:.0f} MB (all of them together)")
+        print(f"CPU time: connecting: server {connect_cpu[0]:.1f} s, workers {connect_cpu[1]:.1f} s; "
+              f"light clients alone: server {baseline_cpu[0]:.1f} s, workers {baseline_cpu[1]:.1f} s; "
+              f"loaded phase ({loaded_wall:.0f} s): server {loaded_cpu[0]:.1f} s, workers {loaded_cpu[1]:.1f} s, "
+              f"this benchmark's clients {loaded_cpu[2]:.1f} s")
+        print(f"load average (1 min) {baseline_load:.1f} at the light phase's start, {load0:.1f} at the loaded "
+              f"phase's start, {load1:.1f} at its end; {os.cpu_count()} cores; "
               f"{time.perf_counter() - wall0:.0f} s in all")
         return 0
     finally:

@@ -18,6 +18,7 @@ from app.core.plot_series import base_title, index_at, merge_runs, value_range, 
 from app.core.sim import SimResult, parse_assignments, parse_contact, parse_numbers, simulate
 from app.core.trajectories import REFERENCE_KINDS
 from app.viewer import mathml
+from app.viewer.worker import in_worker
 
 TITLE = "Control"
 ORDER = 40
@@ -430,7 +431,7 @@ class ControlPanel:
 
         def work(progress):
             try:
-                return simulate(progress=lambda f, m: progress(f, m) if current() else False, **kwargs)
+                return in_worker(simulate, progress=lambda f, m: progress(f, m) if current() else False, **kwargs)
             except UserError as exc:
                 if current():
                     self.status.content = (f'<div class="r2-label" style="color:#b3261e">not run: '

@@ -38,6 +38,7 @@ from app.core.errors import UserError
 from app.core.exercise import Exercise, Solution, solve
 from app.core.expressions import ExpressionError, parse_expression
 from app.core.numeric import ParameterError
+from app.viewer.worker import in_worker
 
 
 @dataclass(frozen=True)
@@ -200,7 +201,7 @@ class SolutionCache:
         if cached is not None:
             return cached
         ex, given = apply_variant(exercise, values)
-        sol = solve(ex, given=given, progress=progress)
+        sol = in_worker(solve, ex, given=given, progress=progress)     # in the server: a worker process
         with self._lock:
             self._items[self.key(exercise, values)] = sol
             while len(self._items) > self.size:

@@ -7,9 +7,11 @@ for seconds; in a thread of the server every other tab's slider waits its turn. 
     result = in_worker(fn, *args, progress=progress, **kwargs)
 
 ``fn`` must be a module-level function, and its arguments and result picklable (the server's own
-processes only: nothing from the network is unpickled). In the worker ``fn`` gets a ``progress``
-that reports back to the job's ``progress`` (its progress bar); the job's Cancel button, or its tab
-going away, kills the worker process within 0.1 s (a new one is started for the next job), so a
+processes only: nothing from the network is unpickled); when they are not, it runs in the job's
+thread as before (and says so on stderr). In the worker ``fn`` gets a ``progress``
+that reports back to the job's ``progress`` (its progress bar); the job's Cancel button, its tab
+going away, or its ``progress`` returning False (the simulator's way to stop a run) kills the
+worker process within 0.1 s (a new one is started for the next job), so a
 computation is stopped even when it does not report. Outside such a job (the command line, tests of
 the core) ``in_worker`` just calls ``fn`` here.
 
@@ -34,13 +36,17 @@ from typing import Callable, List, Optional
 from app.viewer.panel_api import JobCancelled
 
 #: niceness added to a worker process (the server keeps its own)
-NICE = 10
+NICE = 5
 #: seconds between two progress reports a worker sends (the last of a burst may be skipped)
 REPORT_INTERVAL = 0.1
 
 
 class WorkerDied(RuntimeError):
     """The worker process ended in the middle of a job (killed from outside, out of memory)."""
+
+
+class NotPortable(TypeError):
+    """A job's function, arguments or result cannot cross to or from a worker process (pickle)."""
 
 
 class _Job(threading.local):
@@ -74,9 +80,12 @@ def in_worker(fn: Callable, *args, progress: Optional[Callable] = None, **kwargs
     pool = _current.pool
     if progress is not None:
         kwargs["progress"] = progress
-    if pool is None:
-        return fn(*args, **kwargs)
-    return pool.call(fn, args, kwargs, _current.cancelled)
+    if pool is not None:
+        try:
+            return pool.call(fn, args, kwargs, _current.cancelled)
+        except NotPortable as exc:       # a value that does not pickle: as before, in this thread
+            print(f"in_worker: {exc}; running it in the server", file=sys.stderr, flush=True)
+    return fn(*args, **kwargs)
 
 
 # ---------------------------------------------------------------------------------- in the worker
@@ -140,8 +149,8 @@ def _serve(conn, nice: int) -> None:
             reply = ("error", _portable(exc))
         try:
             conn.send(reply)
-        except Exception as exc:            # the result does not pickle: say so
-            conn.send(("error", _portable(RuntimeError(f"the worker's result could not be sent back: {exc}"))))
+        except Exception as exc:            # the result does not pickle: the server runs it itself
+            conn.send(("unportable", f"the result of {getattr(fn, '__name__', fn)} does not pickle: {exc}"))
 
 
 # ---------------------------------------------------------------------------------- in the server
@@ -290,7 +299,7 @@ class WorkerPool:
                 worker.send((fn, args, kwargs if progress is None else {**kwargs, "progress": True}))
             except (pickle.PicklingError, TypeError, AttributeError) as exc:
                 healthy = True         # nothing was sent
-                raise TypeError(f"{getattr(fn, '__name__', fn)} cannot run in a worker process: {exc}") from None
+                raise NotPortable(f"{getattr(fn, '__name__', fn)} cannot be sent to a worker: {exc}") from None
             worker.jobs += 1
             while True:
                 if cancelled():
@@ -308,13 +317,19 @@ class WorkerPool:
                 if kind == "progress":
                     if progress is not None:
                         try:
-                            progress(*rest)
+                            stop = progress(*rest) is False      # the simulator's "stop the run"
                         except JobCancelled:
                             self.killed += 1
                             raise
+                        if stop:
+                            self.killed += 1
+                            raise JobCancelled(f"{getattr(fn, '__name__', 'job')}: stopped by its progress")
                 elif kind == "done":
                     healthy = True
                     return rest[0]
+                elif kind == "unportable":
+                    healthy = True
+                    raise NotPortable(rest[0])
                 else:
                     healthy = True
                     raise rest[0]
