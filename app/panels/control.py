@@ -17,8 +17,7 @@ from app.core.errors import UserError
 from app.core.plot_series import base_title, index_at, merge_runs, value_range, with_time_marker
 from app.core.sim import SimResult, parse_assignments, parse_contact, parse_numbers, simulate
 from app.core.trajectories import REFERENCE_KINDS
-from app.viewer import mathml
-from app.viewer.worker import in_worker
+from app.viewer import in_worker, mathml
 
 TITLE = "Control"
 ORDER = 40

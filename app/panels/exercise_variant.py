@@ -38,7 +38,7 @@ from app.core.errors import UserError
 from app.core.exercise import Exercise, Solution, solve
 from app.core.expressions import ExpressionError, parse_expression
 from app.core.numeric import ParameterError
-from app.viewer.worker import in_worker
+from app.viewer import in_worker
 
 
 @dataclass(frozen=True)
