@@ -27,9 +27,9 @@ def open_page(lab, browser, query, robot):
 
 def pick(page, session, name):
     """Choose a robot with the picker, as a user would, and wait until its panels are built."""
-    info = next(i for i in session._catalog if i.name == name)
+    info = next(i for i in session.picker.catalog if i.name == name)
     shots.field(page, "Robot").click()
-    page.get_by_role("option", name=session._option_of(info), exact=True).click()
+    page.get_by_role("option", name=session.picker.option_of(info), exact=True).click()
     shots.wait_ready(page, name)
     session.ready.wait(60)
 
@@ -244,13 +244,13 @@ def test_picker_is_sorted_searchable_and_a_group_loads_nothing(lab, browser):
     """Defect 10: 61 unsorted entries, typing matched nothing, a group choice loaded a robot."""
     page, session = open_page(lab, browser, "robot=planar_2r", "planar_2r")
     try:
-        catalog = session._catalog
+        catalog = session.picker.catalog
         assert [i.sort_key() for i in catalog] == sorted(i.sort_key() for i in catalog)
-        assert list(session._robot_dropdown.options[1:]) == [session._option_of(i) for i in catalog]
+        assert list(session.picker.robots.options[1:]) == [session.picker.option_of(i) for i in catalog]
         generation = session.generation
         shots.field(page, "Group").click()
         page.get_by_role("option", name="Catching arm", exact=True).click()
-        shots.wait_until(lambda: len(session._robot_dropdown.options) == 2, 5, "the group's list")
+        shots.wait_until(lambda: len(session.picker.robots.options) == 2, 5, "the group's list")
         time.sleep(0.5)
         assert session.generation == generation and session.robot_name == "planar_2r"
         for query, expected in (("2004-03-25", "rp_2004_03_25"), ("3R 2019", "rrr_2019_04_29"),
@@ -258,9 +258,9 @@ def test_picker_is_sorted_searchable_and_a_group_loads_nothing(lab, browser):
             shots.field(page, "Group").click()
             page.get_by_role("option", name="All robots", exact=True).click()
             shots.field(page, "Find robot").fill(query)
-            matching = [session._option_of(i) for i in catalog if i.matches(query)]
-            shots.wait_until(lambda: list(session._robot_dropdown.options[1:]) == matching, 5, query)
-            assert session._option_of(next(i for i in catalog if i.name == expected)) in matching
+            matching = [session.picker.option_of(i) for i in catalog if i.matches(query)]
+            shots.wait_until(lambda: list(session.picker.robots.options[1:]) == matching, 5, query)
+            assert session.picker.option_of(next(i for i in catalog if i.name == expected)) in matching
             assert len(matching) < len(catalog) / 4
         assert session.robot_name == "planar_2r"
         pick(page, session, "rp_2020_06_05")

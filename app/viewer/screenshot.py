@@ -143,8 +143,9 @@ def capture(robot: str, out: str | Path, panel: Optional[str] = None,
 
     ``setup(session)`` runs on the server once the robot's panels are ready (set q, open a step,
     load a run); ``action(page)`` runs in the browser before the shot (clicks, scrolling). With
-    ``scroll`` the side panel is scrolled so that the panel's tab starts at its top. A lab
-    server (``LabServer``) and a ``Browser`` may be passed to reuse them across pictures."""
+    ``scroll`` the side panel is scrolled so that the panel's tab starts at its top. Give a lab
+    server with the panels (``app.commands.serve.lab_server``; without one a server with no tabs
+    is started) and a ``Browser`` to reuse them across pictures."""
     from app.viewer.server import LabServer
     own_lab = lab is None
     lab = lab or LabServer(port=0, robot=robot, verbose=False)

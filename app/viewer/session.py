@@ -28,6 +28,7 @@ from app.viewer.coalescer import Coalescer
 from app.viewer.fields import CommittedField, format_number, parse_parameter
 from app.viewer.jobs import JobRunner
 from app.viewer.panel_api import JobCancelled, PanelSpec  # noqa: F401 (JobCancelled: the old place)
+from app.viewer.picker import RobotPicker
 from app.viewer.presenter import Presenter
 from app.viewer.scene_view import SceneView
 from app.viewer.worker import derive_in_worker, in_worker
@@ -36,9 +37,6 @@ from app.viewer.worker import derive_in_worker, in_worker
 ORDER_STYLE, ORDER_PICKER, ORDER_INFO, ORDER_BADGE, ORDER_PROGRESS = 0, 1, 3, 4, 5
 ORDER_COORDS, ORDER_PARAMS, ORDER_DISPLAY, ORDER_TABS = 10, 11, 12, 100
 
-GROUP_LABELS = {"exam": "Exam robots", "throwing": "Throwing arm", "catching": "Catching arm",
-                "other": "Other robots"}
-ALL_GROUPS = "All robots"
 URL_WAIT = 20.0        # seconds to wait for the page to report its address before the default page
 
 
@@ -207,19 +205,9 @@ class Session:
                             brand_color=(46, 94, 170))
         gui.add_html(mathml.font_style(), order=ORDER_STYLE)
         self.presenter = Presenter(self, order=ORDER_STYLE + 0.3, on_switch=lambda on: self._fire("presenter", on))
-        catalog = self.lab.catalog()
-        self._catalog = catalog
-        groups = [g for g in GROUP_LABELS if any(info.group == g for info in catalog)]
-        self._group_options = {ALL_GROUPS: "", **{GROUP_LABELS[g]: g for g in groups}}
-        self._group_dropdown = gui.add_dropdown(
-            "Group", list(self._group_options), initial_value=ALL_GROUPS,
-            order=ORDER_PICKER, hint="Exam robots, the throwing arm of the VHC thesis, the catching arm")
-        self._find = gui.add_text("Find robot", "", order=ORDER_PICKER + 0.2,
-                                  hint="words of the name, the family (RP, 3R, PRP ...) or the exam date "
-                                       "(2004-03-25, 2019): the list below keeps the robots that match")
-        self._robot_dropdown = gui.add_dropdown(
-            "Robot", self._robot_options(), initial_value=self._robot_options()[0],
-            order=ORDER_PICKER + 0.5, hint="Pick a robot: scene, sliders and panels follow")
+        self._catalog = self.lab.catalog()
+        self.picker = RobotPicker(gui, self._catalog, ORDER_PICKER, lambda: self.robot_name, self.load_robot,
+                                  self._lock)
         self._report = gui.add_text(url_state.BRIDGE_LABEL, "", order=ORDER_STYLE + 0.1)
         self._url_writer = gui.add_html("", order=ORDER_STYLE + 0.2)
         self._info = gui.add_html("", order=ORDER_INFO)
@@ -239,23 +227,7 @@ class Session:
             gui.add_button("Frame the robot", hint="camera back to the full view").on_click(
                 lambda _: self.scene.frame_camera())
             self.presenter.add_switch()
-
-        @self._group_dropdown.on_update
-        def _(event):
-            if event.client is not None:
-                self._refresh_picker()        # a group narrows the list; it loads nothing
-
-        @self._find.on_update
-        def _(event):
-            if event.client is not None:
-                self._refresh_picker()
-
-        @self._robot_dropdown.on_update
-        def _(event):
-            if event.client is None:
-                return
-            self._load_selected()
-
+        self.picker.listen()
         registry = self.lab.panels
         self._panel_specs = list(registry.specs)
         for err in registry.errors:
@@ -270,48 +242,6 @@ class Session:
         timer = threading.Timer(URL_WAIT, self._start, ("",))
         timer.daemon = True
         timer.start()
-
-    # ================================================================== picker
-    def _visible_robots(self) -> List:
-        group = self._group_options.get(self._group_dropdown.value, "")
-        query = self._find.value
-        return [i for i in self._catalog if (not group or i.group == group) and i.matches(query)]
-
-    def _robot_options(self) -> List[str]:
-        """The robot list: a first line that loads nothing (how many match), then the robots."""
-        shown = self._visible_robots()
-        head = f"— {len(shown)} robot{'' if len(shown) == 1 else 's'}: pick one —" if shown else "— no robot matches —"
-        return [head] + [self._option_of(i) for i in shown]
-
-    def _option_of(self, info) -> str:
-        same = [i for i in self._catalog if i.title == info.title]
-        title = info.title if len(same) == 1 else f"{info.title} ({info.name})"
-        return f"{info.family} · {title}" if info.family else title
-
-    def _refresh_picker(self) -> None:
-        """The robot list after a group choice or a search; the robot shown stays loaded."""
-        with self._lock:
-            options = self._robot_options()
-            current = next((self._option_of(i) for i in self._catalog if i.name == self.robot_name), None)
-            self._robot_dropdown.options = options
-            self._robot_dropdown.value = current if current in options else options[0]
-
-    def _load_selected(self) -> None:
-        option = self._robot_dropdown.value
-        info = next((i for i in self._catalog if self._option_of(i) == option), None)
-        if info is not None and info.name != self.robot_name:
-            self.load_robot(info.name)
-
-    def _sync_picker(self, name: str) -> None:
-        options = self._robot_options()
-        info = next((i for i in self._catalog if i.name == name), None)
-        if info is not None and self._option_of(info) not in options:      # shown again: list all
-            self._group_dropdown.value = ALL_GROUPS
-            self._find.value = ""
-            options = self._robot_options()
-        self._robot_dropdown.options = options
-        if info is not None:
-            self._robot_dropdown.value = self._option_of(info)
 
     # ================================================================== the page's address
     def _page_reported(self, event) -> None:
@@ -456,7 +386,7 @@ class Session:
                 self._build_parameters()
                 self._clear_panels(robot)
             self.scene.frame_camera()
-            self._sync_picker(name)
+            self.picker.show(name)
             if self.url.get("robot") != name:      # panels put theirs back if they still apply
                 for key in ("exercise", "step", "throw"):
                     self.url.pop(key, None)

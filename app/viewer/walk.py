@@ -306,11 +306,11 @@ class Walk:
     # -------------------------------------------------------------- actions
     def pick_robot(self) -> None:
         name = self.rng.choice([n for n in self.pool if n != self.session.robot_name])
-        info = next(i for i in self.session._catalog if i.name == name)
+        info = next(i for i in self.session.picker.catalog if i.name == name)
         words = (info.date or info.family) if self.rng.random() < 0.5 else ""   # narrow the list, or not
         self._find(words)
         shots.field(self.page, "Robot").click()
-        self.page.get_by_role("option", name=self.session._option_of(info), exact=True).click()
+        self.page.get_by_role("option", name=self.session.picker.option_of(info), exact=True).click()
         shots.wait_until(lambda: self.session.robot_name == name, 10, f"{name} to load")
 
     def switch_tab(self) -> None:
@@ -407,15 +407,15 @@ class Walk:
         """Type into the picker's search field and wait for the list to follow."""
         s = self.session
         shots.field(self.page, "Find robot").fill(words)
-        shots.wait_until(lambda: s._find.value == words and len(s._robot_dropdown.options) ==
-                         1 + sum(i.matches(words) for i in s._catalog), 5, f"the robots matching {words!r}")
+        shots.wait_until(lambda: s.picker.find.value == words and len(s.picker.robots.options) ==
+                         1 + sum(i.matches(words) for i in s.picker.catalog), 5, f"the robots matching {words!r}")
 
     def play_throw(self) -> None:
         if self.session.robot_name != "throwing_arm":
             self._find("throwing")
-            info = next(i for i in self.session._catalog if i.name == "throwing_arm")
+            info = next(i for i in self.session.picker.catalog if i.name == "throwing_arm")
             shots.field(self.page, "Robot").click()
-            self.page.get_by_role("option", name=self.session._option_of(info), exact=True).click()
+            self.page.get_by_role("option", name=self.session.picker.option_of(info), exact=True).click()
             shots.wait_until(lambda: self.session.robot_name == "throwing_arm", 10, "the throwing arm")
             self._wait_ready()
         title = next(t for t in self._tab_titles() if "Throw" in t)
