@@ -8,6 +8,8 @@ core's public names, and never reach into the session or viser. A breach fails, 
 line."""
 import ast
 import functools
+import inspect
+import textwrap
 from pathlib import Path
 
 import pytest
@@ -194,6 +196,38 @@ def test_panels_do_not_reach_around_the_session():
                 if before == "session" and (after in SESSION_INSIDES or after.startswith("_")):
                     found.append(f"{path.relative_to(ROOT)}:{line}: {chain}")
     assert not found, "panels use the session interface (docs/panels.md), not:\n" + "\n".join(sorted(set(found)))
+
+
+def panel_interface() -> set:
+    """The names ``PanelSession`` (app/viewer/panel_api.py) offers a panel."""
+    from app.viewer.panel_api import PanelSession
+    return set(PanelSession.__annotations__) | {k for k in vars(PanelSession) if not k.startswith("_")}
+
+
+def test_panels_use_only_the_panel_interface_of_the_session():
+    offered = panel_interface()
+    found = []
+    for path, _ in panel_files():
+        for line, chain in attribute_chains(path.read_text(encoding="utf-8")):
+            parts = chain.split(".")
+            if len(parts) > 1 and parts[-2] == "session" and parts[-1] not in offered:
+                found.append(f"{path.relative_to(ROOT)}:{line}: {chain}")
+    assert not found, "not in PanelSession (app/viewer/panel_api.py):\n" + "\n".join(sorted(set(found)))
+
+
+def test_the_session_implements_the_panel_interface():
+    """Every name of ``PanelSession`` is a method or property of ``Session`` or set in its
+    ``__init__`` (read from the source: no server needed)."""
+    from app.viewer.session import Session
+    init = ast.parse(textwrap.dedent(inspect.getsource(Session.__init__)))
+    assigned = {t.attr for node in ast.walk(init) if isinstance(node, (ast.Assign, ast.AnnAssign))
+                for t in (node.targets if isinstance(node, ast.Assign) else [node.target])
+                if isinstance(t, ast.Attribute)}
+    build = ast.parse(textwrap.dedent(inspect.getsource(Session._build_page)))
+    assigned |= {t.attr for node in ast.walk(build) if isinstance(node, ast.Assign)
+                 for t in node.targets if isinstance(t, ast.Attribute)}
+    missing = {name for name in panel_interface() if not hasattr(Session, name) and name not in assigned}
+    assert not missing, f"Session lacks {sorted(missing)}"
 
 
 def test_no_private_viser_attributes():
