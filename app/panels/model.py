@@ -10,15 +10,19 @@ import sympy as sp
 from app.core.answer_check import check_model_entry, model_entries
 from app.core.steps import shorthand_is_clear
 from app.core.tex import model_tex
-from app.viewer import AnswerBox, mathml
+from app.viewer import AnswerBox, html_cache, mathml
 
 TITLE = "Model"
 ORDER = 10
 
-_HTML: Dict[tuple, str] = {}     # typeset symbolic sections, per robot file: switching back is instant
+_HTML: Dict[tuple, str] = {}     # typeset symbolic sections of robots without a file hash
 
 
 def _cached(key: tuple, make: Callable[[], str]) -> str:
+    """A typeset section, per robot file: from memory or the disk cache (app/viewer/html_cache.py)
+    when the robot has a file hash, so that switching to a robot shown before is instant."""
+    if key[0]:
+        return html_cache.cached_html(key, make)
     html = _HTML.get(key)
     if html is None:
         html = _HTML[key] = make()

@@ -15,7 +15,7 @@ _PUBLIC = {
     "SceneView": "scene_view", "SceneGroup": "scene_view", "SIDE_PANEL_PX": "scene_view",
     "Coalescer": "coalescer", "parse_parameter": "fields", "CommittedField": "fields",
     "AnswerBox": "answer_box",
-    "mathml": "mathml", "parse_exercise_ids": "sheets", "sheet_files": "sheets",
+    "mathml": "mathml", "html_cache": "html_cache", "parse_exercise_ids": "sheets", "sheet_files": "sheets",
     "in_worker": "worker",
 }
 __all__ = sorted(_PUBLIC)
