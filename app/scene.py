@@ -1,4 +1,4 @@
-"""The 3D picture of a robot, like a textbook figure come alive (pure geometry: numpy + trimesh).
+"""The 3D picture of a robot, like a textbook figure come alive (pure geometry: numpy).
 
 ``RobotDrawing(robot, params)`` turns a robot file into coloured meshes attached to frames:
 
@@ -16,6 +16,10 @@ Every part hangs on an *attachment*: ``"base"`` (the world), ``"<body>"`` (the b
 few poses and never rebuilding meshes. The viewer (app/viewer/scene_view.py) sends the parts to
 viser; nothing here imports viser.
 
+The meshes (``Mesh``: boxes, cylinders, cones, capsules, icospheres) are made here with numpy, the
+same tessellation trimesh's ``creation`` module makes: importing trimesh (and the scipy it pulls
+in) cost the page's server about 0.7 s of CPU at every start (issue 16).
+
 >>> from app.core.robot import load_robot
 >>> drawing = RobotDrawing(load_robot("planar_2r"))
 >>> sorted({p.role for p in drawing.parts})
@@ -32,7 +36,6 @@ from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 import sympy as sp
-import trimesh
 
 from app.core.expressions import parse_expression
 from app.core.kinematics import Kinematics
@@ -50,12 +53,149 @@ _FRAMES_CACHE: Dict[str, object] = {}
 _FRAMES_LOCK = threading.Lock()
 
 
+# ------------------------------------------------------------------------------ meshes
+class Mesh:
+    """A triangle mesh: ``vertices`` (n x 3 floats), ``faces`` (m x 3 vertex indices, counter-
+    clockwise seen from outside). Transforms change it in place and return it.
+
+    >>> m = box_mesh([1.0, 2.0, 3.0])
+    >>> m.bounds.tolist(), round(m.volume, 6)
+    ([[-0.5, -1.0, -1.5], [0.5, 1.0, 1.5]], 6.0)
+    """
+
+    def __init__(self, vertices, faces):
+        self.vertices = np.asarray(vertices, dtype=float).reshape(-1, 3)
+        self.faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+
+    def apply_transform(self, T) -> "Mesh":
+        T = np.asarray(T, dtype=float)
+        self.vertices = self.vertices @ T[:3, :3].T + T[:3, 3]
+        return self
+
+    def apply_translation(self, t) -> "Mesh":
+        self.vertices = self.vertices + np.asarray(t, dtype=float)
+        return self
+
+    @property
+    def bounds(self) -> np.ndarray:
+        return np.array([self.vertices.min(axis=0), self.vertices.max(axis=0)])
+
+    @property
+    def triangles_center(self) -> np.ndarray:
+        return self.vertices[self.faces].mean(axis=1)
+
+    @property
+    def volume(self) -> float:
+        """Enclosed volume (positive when the faces point outwards)."""
+        a, b, c = (self.vertices[self.faces[:, k]] for k in range(3))
+        return float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6)
+
+    def submesh(self, face_lists, append: bool = True) -> "Mesh":
+        """The mesh of the faces listed (one list, as trimesh's ``submesh(..., append=True)``)."""
+        faces = self.faces[np.concatenate([np.asarray(f, dtype=np.int64) for f in face_lists])]
+        used, inverse = np.unique(faces, return_inverse=True)
+        return Mesh(self.vertices[used], inverse.reshape(-1, 3))
+
+
+def concatenate(meshes: Sequence[Mesh]) -> Mesh:
+    offsets = np.cumsum([0] + [len(m.vertices) for m in meshes[:-1]])
+    return Mesh(np.vstack([m.vertices for m in meshes]),
+                np.vstack([m.faces + k for m, k in zip(meshes, offsets)]))
+
+
+def box_mesh(extents) -> Mesh:
+    """A box centred at the origin."""
+    corners = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)])
+    faces = [[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+             [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]]
+    return Mesh(corners * np.asarray(extents, dtype=float), faces)
+
+
+def revolved_mesh(profile, sections: int) -> Mesh:
+    """The surface swept by a profile of (r, z) points turned about the z axis; a point with r = 0
+    is one vertex on the axis (a pole). The profile runs from the bottom to the top."""
+    angles = 2 * np.pi * np.arange(sections) / sections
+    ring = np.column_stack([np.cos(angles), np.sin(angles)])
+    vertices, rows = [], []
+    for r, z in profile:
+        start = len(vertices)
+        if r <= 0:
+            vertices.append([0.0, 0.0, z])
+            rows.append([start] * sections)
+        else:
+            vertices += [[r * c, r * s_, z] for c, s_ in ring]
+            rows.append(list(range(start, start + sections)))
+    faces = []
+    for lower, upper in zip(rows, rows[1:]):
+        for j in range(sections):
+            k = (j + 1) % sections
+            if lower[j] != lower[k]:
+                faces.append([lower[j], lower[k], upper[k]])
+            if upper[j] != upper[k]:
+                faces.append([lower[j], upper[k], upper[j]])
+    return Mesh(vertices, faces)
+
+
+def cylinder_mesh(radius: float, height: float, sections: int = 32) -> Mesh:
+    """A closed cylinder along z, centred at the origin."""
+    h = height / 2
+    return revolved_mesh([(0.0, -h), (radius, -h), (radius, h), (0.0, h)], sections)
+
+
+def cone_mesh(radius: float, height: float, sections: int = 32) -> Mesh:
+    """A closed cone along z: its base at z = 0, its tip at z = height."""
+    return revolved_mesh([(0.0, 0.0), (radius, 0.0), (0.0, height)], sections)
+
+
+def capsule_mesh(height: float, radius: float, count=(32, 32)) -> Mesh:
+    """A capsule along z centred at the origin, ``height`` between its two sphere centres;
+    ``count`` = (sections around, rings over both caps)."""
+    around, rings = int(count[0]), max(2, int(count[1]) // 2 * 2)
+    half = rings // 2
+    h = height / 2
+    profile = [(0.0, -h - radius)]
+    profile += [(radius * math.sin(math.pi / 2 * k / half), -h - radius * math.cos(math.pi / 2 * k / half))
+                for k in range(1, half + 1)]
+    profile += [(radius * math.cos(math.pi / 2 * k / half), h + radius * math.sin(math.pi / 2 * k / half))
+                for k in range(0, half)]
+    profile.append((0.0, h + radius))
+    return revolved_mesh(profile, around)
+
+
+def icosphere_mesh(subdivisions: int = 2, radius: float = 1.0) -> Mesh:
+    """A sphere from an icosahedron whose triangles are split in four ``subdivisions`` times."""
+    t = (1 + math.sqrt(5)) / 2
+    vertices = [[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t], [0, -1, -t],
+                [0, 1, -t], [t, 0, -1], [t, 0, 1], [-t, 0, -1], [-t, 0, 1]]
+    vertices = [list(np.asarray(v, float) / np.linalg.norm(v)) for v in vertices]
+    faces = [[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4], [11, 10, 2],
+             [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9], [4, 9, 5],
+             [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1]]
+    for _ in range(subdivisions):
+        middle: Dict[Tuple[int, int], int] = {}
+
+        def mid(a, b):
+            key = (min(a, b), max(a, b))
+            if key not in middle:
+                m = np.add(vertices[a], vertices[b])
+                vertices.append(list(m / np.linalg.norm(m)))
+                middle[key] = len(vertices) - 1
+            return middle[key]
+
+        split = []
+        for a, b, c in faces:
+            ab, bc, ca = mid(a, b), mid(b, c), mid(c, a)
+            split += [[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]
+        faces = split
+    return Mesh(np.asarray(vertices) * radius, faces)
+
+
 @dataclass
 class Part:
     """One mesh of the drawing, in the coordinates of its attachment frame."""
     name: str                    # unique, usable as a scene-node name
     attach: str                  # "base", "<body>" or "<body>@joint"
-    mesh: trimesh.Trimesh
+    mesh: Mesh
     color: Tuple[int, int, int]
     role: str                    # link | joint | sleeve | rod | com | base
     body: Optional[str] = None   # the body this part shows (links, CoMs) or whose joint it is
@@ -144,7 +284,7 @@ def align_z(direction) -> np.ndarray:
     return np.eye(3) + vx + vx @ vx * (1 / (1 + c))
 
 
-def _placed(mesh: trimesh.Trimesh, R=None, t=None) -> trimesh.Trimesh:
+def _placed(mesh: Mesh, R=None, t=None) -> Mesh:
     T = np.eye(4)
     if R is not None:
         T[:3, :3] = R
@@ -154,40 +294,40 @@ def _placed(mesh: trimesh.Trimesh, R=None, t=None) -> trimesh.Trimesh:
     return mesh
 
 
-def capsule(a, b, radius) -> trimesh.Trimesh:
+def capsule(a, b, radius) -> Mesh:
     """A capsule (bar with round ends) from point a to point b."""
     a, b = np.asarray(a, float), np.asarray(b, float)
     length = float(np.linalg.norm(b - a))
-    mesh = trimesh.creation.capsule(height=max(length, 1e-6), radius=radius, count=[24, 12])
+    mesh = capsule_mesh(height=max(length, 1e-6), radius=radius, count=[24, 12])
     return _placed(mesh, align_z(b - a) if length > 1e-9 else None, (a + b) / 2)
 
 
-def cylinder(center, direction, radius, length, sections: int = 32) -> trimesh.Trimesh:
-    mesh = trimesh.creation.cylinder(radius=radius, height=length, sections=sections)
+def cylinder(center, direction, radius, length, sections: int = 32) -> Mesh:
+    mesh = cylinder_mesh(radius=radius, height=length, sections=sections)
     return _placed(mesh, align_z(direction), center)
 
 
-def box(center, direction, length, width) -> trimesh.Trimesh:
-    mesh = trimesh.creation.box(extents=[width, width, length])
+def box(center, direction, length, width) -> Mesh:
+    mesh = box_mesh(extents=[width, width, length])
     return _placed(mesh, align_z(direction), center)
 
 
-def arrow(start, vector, radius) -> trimesh.Trimesh:
+def arrow(start, vector, radius) -> Mesh:
     """An arrow (shaft and cone) from ``start`` along ``vector``."""
     start, vector = np.asarray(start, float), np.asarray(vector, float)
     length = float(np.linalg.norm(vector))
     head = min(0.35 * length, 6 * radius)
-    shaft = trimesh.creation.cylinder(radius=radius, height=length - head, sections=20)
+    shaft = cylinder_mesh(radius=radius, height=length - head, sections=20)
     shaft.apply_translation([0, 0, (length - head) / 2])
-    cone = trimesh.creation.cone(radius=2.6 * radius, height=head, sections=24)
+    cone = cone_mesh(radius=2.6 * radius, height=head, sections=24)
     cone.apply_translation([0, 0, length - head])
-    mesh = trimesh.util.concatenate([shaft, cone])
+    mesh = concatenate([shaft, cone])
     return _placed(mesh, align_z(vector), start)
 
 
-def com_marker(center, radius) -> Tuple[trimesh.Trimesh, trimesh.Trimesh]:
+def com_marker(center, radius) -> Tuple[Mesh, Mesh]:
     """The textbook centre-of-mass symbol as a sphere: (dark octants, light octants)."""
-    sphere = trimesh.creation.icosphere(subdivisions=2, radius=radius)
+    sphere = icosphere_mesh(subdivisions=2, radius=radius)
     signs = np.prod(np.sign(sphere.triangles_center + 1e-9), axis=1)
     dark = sphere.submesh([np.nonzero(signs > 0)[0]], append=True)
     light = sphere.submesh([np.nonzero(signs <= 0)[0]], append=True)
@@ -374,14 +514,14 @@ class RobotDrawing:
             side = np.cross(up, normal)
             if np.linalg.norm(side) < 1e-9:       # horizontal plane seen from above
                 side = np.array([1.0, 0.0, 0.0])
-                block = trimesh.creation.box(extents=[5.5 * r, 5.5 * r, 1.2 * r])
+                block = box_mesh(extents=[5.5 * r, 5.5 * r, 1.2 * r])
                 return [Part("base", "base", block.apply_translation([0, 0, -2.6 * r]), BASE_COLOR, "base")]
             side /= np.linalg.norm(side)
             R = np.column_stack([side, up, normal])
-            block = trimesh.creation.box(extents=[6.0 * r, 2.4 * r, 2.4 * r])
+            block = box_mesh(extents=[6.0 * r, 2.4 * r, 2.4 * r])
             block.apply_translation([0, -1.7 * r - 1.2 * r, 0])
             return [Part("base", "base", _placed(block, R), BASE_COLOR, "base")]
-        pedestal = trimesh.creation.cylinder(radius=3.0 * r, height=1.6 * r, sections=40)
+        pedestal = cylinder_mesh(radius=3.0 * r, height=1.6 * r, sections=40)
         pedestal.apply_translation([0, 0, -0.8 * r - 1.9 * r])
         return [Part("base", "base", _placed(pedestal, align_z(up)), BASE_COLOR, "base")]
 

@@ -160,3 +160,17 @@ def test_coalescer_merges_a_burst_and_ends_with_the_latest_state():
     assert done.wait(5)
     time.sleep(0.05)
     assert seen[-1] == 199 and len(seen) < 50
+
+
+def test_the_meshes_are_closed_face_outwards_and_have_their_volumes():
+    """app/scene.py makes its meshes itself (no trimesh): every edge is shared by two faces that
+    run it in opposite directions (closed, consistently wound), and the enclosed volume is positive
+    (faces outwards) and near the solid's."""
+    from app.scene import box_mesh, capsule_mesh, cone_mesh, cylinder_mesh, icosphere_mesh
+    pi = np.pi
+    for mesh, volume in [(capsule_mesh(2.0, 0.5, count=[24, 12]), pi * 0.25 * 2 + 4 / 3 * pi * 0.125),
+                         (cylinder_mesh(1.0, 2.0, 32), 2 * pi), (cone_mesh(1.0, 2.0, 24), 2 * pi / 3),
+                         (icosphere_mesh(2, 1.0), 4 / 3 * pi), (box_mesh([1.0, 2.0, 3.0]), 6.0)]:
+        edges = [(int(a), int(b)) for f in mesh.faces for a, b in ((f[0], f[1]), (f[1], f[2]), (f[2], f[0]))]
+        assert len(set(edges)) == len(edges) and set(edges) == {(b, a) for a, b in edges}
+        assert mesh.volume == pytest.approx(volume, rel=0.05)
