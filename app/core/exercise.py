@@ -183,7 +183,8 @@ _KEYS = {"id", "title", "robot", "question", "tasks", "exam", "number", "topics"
 
 def load_exercise(id_or_path: str | Path) -> Exercise:
     path = exercise_path(id_or_path)
-    data = load_yaml(read_user_file(path, ExerciseError), str(path), ExerciseError)
+    data = load_yaml(read_user_file(path, ExerciseError), str(path), ExerciseError,
+                     shipped=path.resolve().parent == EXERCISES_DIR.resolve())
     return parse_exercise(data, str(path))
 
 

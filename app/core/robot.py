@@ -663,15 +663,17 @@ def robot_path(name_or_path: str | Path) -> Path:
 def load_robot(name_or_path: str | Path) -> RobotModel:
     """Load a shipped robot by name or a robot file by path (a regular text file of at most 1 MB)."""
     path = robot_path(name_or_path)
-    return load_robot_text(read_user_file(path, RobotFileError), str(path))
+    shipped = Path(path).resolve().parent == ROBOTS_DIR.resolve()
+    return load_robot_text(read_user_file(path, RobotFileError), str(path), shipped)
 
 
-def load_robot_text(text: str, source: str = "<robot>") -> RobotModel:
-    """A robot from the text of a robot file (YAML) or of a URDF file (app/core/urdf.py)."""
+def load_robot_text(text: str, source: str = "<robot>", shipped: bool = False) -> RobotModel:
+    """A robot from the text of a robot file (YAML) or of a URDF file (app/core/urdf.py);
+    ``shipped``: the text of a file in app/robots (read with libyaml's loader)."""
     if is_urdf(text, source):
         data = robot_data_from_urdf(text, source)
         digest = hashlib.sha256(json.dumps(data, sort_keys=True).encode("utf-8")).hexdigest()
         return parse_robot(data, source, digest)
-    data = load_yaml(text, source, RobotFileError)
+    data = load_yaml(text, source, RobotFileError, shipped)
     digest = hashlib.sha256(text.encode("utf-8")).hexdigest()
     return parse_robot(data, source, digest)
