@@ -14,7 +14,10 @@ def add_arguments(p):
 def run(args) -> int:
     import time
 
+    from app.panels.exercises import shipped_exercises
+
     lab = lab_server(host=args.host, port=args.port, robot=args.robot)
+    lab.warm_up(shipped_exercises)       # the picker's and the Exercises tab's lists, the first robot
     print(f"Robotics II Lab: open {lab.url} in a browser (Ctrl+C stops)", flush=True)
     if lab.policy.token:
         print(f"Other machines: http://<this machine's address>:{lab.viser.get_port()}/{lab.policy.token}/ "

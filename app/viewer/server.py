@@ -85,6 +85,7 @@ class LabServer:
         self.panels = panels
         self._robots: Dict[str, Tuple[float, RobotModel]] = {}
         self._catalog: Dict[str, Tuple[float, RobotInfo]] = {}
+        self._catalog_lock = threading.Lock()     # one reader builds it; a tab opening meanwhile waits
         self._lock = threading.Lock()
         self.sessions: Dict[int, Session] = {}
         names = list_robot_names()
@@ -137,6 +138,10 @@ class LabServer:
     def catalog(self) -> List[RobotInfo]:
         """Every shipped robot in the picker's order (files are read again only when they change);
         broken files are left out of the picker (``python -m app check NAME`` says what is wrong)."""
+        with self._catalog_lock:
+            return self._read_catalog()
+
+    def _read_catalog(self) -> List[RobotInfo]:
         out = []
         for name in list_robot_names():
             try:
@@ -150,6 +155,27 @@ class LabServer:
             except Exception:    # a file being written by someone else, or broken: skip it
                 continue
         return sorted(out, key=RobotInfo.sort_key)
+
+    def warm_up(self, *extra: Callable[[], object]) -> threading.Thread:
+        """Read in a background thread what the first tab needs (issue 16: a page that answers at
+        once): the robot picker's catalog (every robot file), the first robot's model (from the
+        disk cache, or derived) and drawing, then each of ``extra`` (the panels' own lists). The
+        server answers meanwhile; a tab that opens early waits only for what is still missing."""
+        def work():
+            try:
+                self.catalog()
+                from app.core.dynamics import derive
+                from app.scene import RobotDrawing
+                robot = self.robot(self.initial_robot)
+                RobotDrawing(robot)
+                derive(robot)
+                for fn in extra:
+                    fn()
+            except Exception:         # the tab that needs it will say what is wrong
+                pass
+        thread = threading.Thread(target=work, name="warm-up", daemon=True)
+        thread.start()
+        return thread
 
     # ------------------------------------------------------------------ jobs
     def limited(self, fn: Callable) -> Callable:
