@@ -66,6 +66,24 @@ def run(repeats: int = REPEATS) -> dict:
             for label, s in samples.items()}
 
 
+#: the commands with the goal of at most GOAL_CPU s of CPU
+GOAL_COMMANDS = {"robots", "exercises", "derive rp_2004_03_25 (cached)", "derive rp_2004_03_25 --json (cached)",
+                 "solve 2009-07-10#1 --json (cached)", "solve 2004-03-25#1 --json (cached)"}
+
+
+def figures(repeats: int = REPEATS) -> list:
+    """(name, wall s, CPU s, goal or None, note) of every command, against the baselines."""
+    measured = run(repeats)
+    base_cpu, base_wall = measured[BASELINE[0]]
+    out = []
+    for label, (cpu, wall) in measured.items():
+        if label == BASELINE[0]:
+            continue
+        note = f"{cpu / base_cpu:.1f}x `import app` ({base_cpu:.2f} s CPU)"
+        out.append((f"start-up: {label}", wall, cpu, GOAL_CPU if label in GOAL_COMMANDS else None, note, "cpu"))
+    return out
+
+
 def main(repeats: int = REPEATS) -> None:
     figures = run(repeats)
     base_cpu, base_wall = figures[BASELINE[0]]

@@ -1,115 +1,229 @@
-"""The viewer in headless Chromium (software WebGL, like CI): time to the first frame, time to switch
-robots (cached and cold), and pose updates while a slider is dragged.
+"""The viewer in headless Chromium (software WebGL, like CI): what a user waits for when starting the
+lab and switching robots, each beside viser's own minimal app in the same run, CPU time beside wall
+time (a busy machine inflates wall time much more than CPU time).
 
-- first frame: from creating the server (``LabServer``, what ``python -m app`` does) and opening
-  the page until the robot's link colour is on the canvas; and until the panels are built.
+- server up, first frame, ready: ``python -m app serve --port 0`` in its own process, as a user
+  starts it (a derivation cache filled by an earlier start, so planar 2R is not derived again): from
+  starting the process until it prints its address (server up), then from server up until the
+  robot's link colour is on the canvas of a fresh browser tab (first frame) and until its panels
+  are built (ready, the page's ready marker). CPU: the server process's (at server up and at
+  ready). Baseline: viser's minimal app (a process that starts ``viser.ViserServer`` and adds one
+  box of the same colour), timed the same way.
 - switch: from choosing another robot (``session.load_robot``, what the picker calls) until the
-  browser shows the new robot with its panels built (the page's ready marker), for robots already
-  derived in this process (cached) and with empty memory and disk caches (cold: derivation,
-  compilation and drawing from scratch).
+  browser shows the new robot with its panels built, for every robot of ``SWITCH`` (both arms
+  among them; ``--all-robots``: every shipped robot): first after a restart (derived before: the
+  disk caches are filled, the process's memory caches empty), then again (memory). CPU: the
+  benchmark process's, which holds the server, and its worker processes' (the browser's own work
+  is not in it). Cold: empty
+  memory and disk caches (derivation, compilation and drawing from scratch).
 - drag: the mouse drags the q1 slider for 3 s; counted are the slider updates the server
   receives, the poses it applies, and the distinct poses the browser renders per second. In
   software WebGL the browser itself is the bottleneck (it renders a frame per mouse move), so a
   synthetic drag feeds 1000 slider updates per second straight into the session's handler with
   the browser attached; and the server alone pushes poses as fast as it can (its capacity).
 
-Run: ``python -m benchmarks.viewer`` (needs /usr/bin/chromium). Numbers go to docs/viewer.md.
+Goals (issue 16): server up <= 2 s; first frame <= 2 s and ready <= 3 s after the server is up;
+a cached robot switch <= 0.5 s for every shipped robot.
+
+Run: ``python -m benchmarks.viewer [--all-robots] [--repeats N]`` (needs /usr/bin/chromium).
+Numbers go to docs/viewer.md.
 """
 from __future__ import annotations
 
+import argparse
 import colorsys
 import os
 import statistics
+import subprocess
+import sys
 import tempfile
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
 
-CACHED = ["planar_2r", "rp_2004_03_25", "throwing_arm", "viewer_demo_spatial_3r"]
+ROOT = Path(__file__).resolve().parents[1]
+SWITCH = ["rp_2004_03_25", "viewer_demo_spatial_3r", "spatial_3r_2017_03_29", "throwing_arm", "catching_arm",
+          "planar_2r"]
 COLD = ["planar_3r", "viewer_demo_spatial_3r"]
+GOAL_UP, GOAL_FRAME, GOAL_READY, GOAL_SWITCH = 2.0, 2.0, 3.0, 0.5
+TICK = os.sysconf("SC_CLK_TCK")
+
+#: viser's own minimal app: a server and one box in the lab's first link colour
+VISER_APP = """
+import sys, time, viser
+server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+server.scene.add_box("/box", color=(70, 114, 196), dimensions=(0.5, 0.5, 0.5))     # app.scene.PALETTE[0]
+print(f"open http://127.0.0.1:{server.get_port()}/", flush=True)
+while True:
+    time.sleep(3600)
+"""
+
+
+def _process_cpu(pid: int) -> float:
+    """User + system CPU seconds of a running process (Linux /proc)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / TICK
 
 
 def _robot_on_canvas(page) -> bool:
+    import imageio.v3 as iio
     from app.scene import PALETTE
-    from app.viewer.screenshot import image
-    img = image(page)[:, :800].reshape(-1, 3)[::7].astype(float) / 255
+    try:      # software WebGL under load: a picture may take longer than playwright's 30 s
+        shot = page.screenshot(timeout=120000)
+    except Exception:
+        return False
+    img = iio.imread(shot, extension=".png")[:, :800, :3].reshape(-1, 3)[::7].astype(float) / 255
     target = colorsys.rgb_to_hsv(*(np.asarray(PALETTE[0]) / 255))[0]
     hsv = np.array([colorsys.rgb_to_hsv(*px) for px in img])
     hits = (hsv[:, 1] > 0.3) & (np.minimum(abs(hsv[:, 0] - target), 1 - abs(hsv[:, 0] - target)) < 0.04)
     return int(hits.sum()) > 20
 
 
-def first_frame(browser, robot="planar_2r"):
-    from app.viewer.screenshot import wait_ready
+def _lab(**options):
+    """A lab server with the page's panels, as ``python -m app serve`` starts it."""
     from app.commands.serve import lab_server
-    t0 = time.perf_counter()
-    lab = lab_server(port=0, robot=robot)
-    listening = time.perf_counter() - t0
-    page = browser.page(lab.url)
-    while not _robot_on_canvas(page):
-        if time.perf_counter() - t0 > 120:
-            raise RuntimeError("no robot on the canvas after 120 s")
-        page.wait_for_timeout(50)
-    frame = time.perf_counter() - t0
-    wait_ready(page, robot)
-    ready = time.perf_counter() - t0
-    page.context.close()
-    lab.stop()
-    return listening, frame, ready
+    return lab_server(port=0, **options)
 
 
-def _switch(page, session, name) -> float:
+def start_to_ready(browser, args, env, ready: bool = True) -> dict:
+    """Start a server process (``python ARGS``) and open its page: wall and CPU figures."""
+    from app.viewer.screenshot import wait_ready
     t0 = time.perf_counter()
+    proc = subprocess.Popen([sys.executable, *args], cwd=ROOT, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.DEVNULL, text=True)
+    try:
+        line = proc.stdout.readline()
+        while line and "open http" not in line:       # viser's banner comes first in its own app
+            line = proc.stdout.readline()
+        up = time.perf_counter() - t0
+        up_cpu = _process_cpu(proc.pid)
+        url = line[line.index("http"):].split()[0]
+        t1 = time.perf_counter()
+        page = browser.page(url)
+        frame = float("nan")                       # nothing on the canvas within 120 s
+        while time.perf_counter() - t1 < 120:
+            if _robot_on_canvas(page):
+                frame = time.perf_counter() - t1
+                break
+            page.wait_for_timeout(50)
+        out = {"up": up, "up cpu": up_cpu, "frame": frame}
+        if ready:
+            wait_ready(page, "planar_2r")
+            out["ready"] = time.perf_counter() - t1
+        out["cpu"] = _process_cpu(proc.pid)
+        page.context.close()
+        return out
+    finally:
+        proc.terminate()
+        proc.wait(30)
+
+
+def first_frame(browser, repeats: int = 3) -> dict:
+    """Median figures of the lab and of viser's minimal app, runs interleaved."""
+    with tempfile.TemporaryDirectory(prefix="r2lab-viewer-") as cache:
+        env = {**os.environ, "R2LAB_CACHE": cache}
+        lab_args = ["-m", "app", "serve", "--port", "0", "--robot", "planar_2r"]
+        start_to_ready(browser, lab_args, env)                  # fills the derivation cache
+        runs = {"lab": [], "viser": []}
+        for _ in range(repeats):
+            runs["lab"].append(start_to_ready(browser, lab_args, env))
+            runs["viser"].append(start_to_ready(browser, ["-c", VISER_APP], env, ready=False))
+    return {who: {key: statistics.median(r[key] for r in rs) for key in rs[0]} for who, rs in runs.items()}
+
+
+def _server_cpu(lab) -> dict:
+    """CPU seconds of this process (which holds the server) and of each live worker process."""
+    out = {"self": time.process_time()}
+    workers = getattr(lab, "workers", None)
+    for pid in (workers.pids() if workers is not None else []):
+        try:
+            out[pid] = _process_cpu(pid)
+        except (OSError, ValueError, IndexError):
+            pass
+    return out
+
+
+def _cpu_since(lab, before: dict) -> float:
+    now = _server_cpu(lab)
+    return sum(value - before.get(key, 0.0) for key, value in now.items())
+
+
+def _switch(page, session, name) -> tuple:
+    """(wall, CPU of the server: this process and its workers) from ``load_robot`` until the
+    browser shows the robot ready."""
+    t0, c0 = time.perf_counter(), _server_cpu(session.lab)
     threading.Thread(target=session.load_robot, args=(name,), daemon=True).start()
     page.wait_for_selector(f'.r2-status[data-ready="1"][data-robot="{name}"]', state="attached", timeout=300000)
-    return time.perf_counter() - t0
+    return time.perf_counter() - t0, _cpu_since(session.lab, c0)
 
 
-def switching(browser):
-    from app.viewer.screenshot import new_session, wait_ready
-    from app.commands.serve import lab_server
-    lab = lab_server(port=0, robot=CACHED[0])
-    page = browser.page(lab.url)
-    wait_ready(page, CACHED[0])
-    session = new_session(lab, set())
-    for name in CACHED[1:] + CACHED[:1]:          # warm every robot once
-        _switch(page, session, name)
-    cached = {}
-    for name in CACHED[1:]:
-        times = []
-        for _ in range(3):
-            times.append(_switch(page, session, name))
-            _switch(page, session, CACHED[0])
-        cached[name] = statistics.median(times)
-    cold = {}
+def _forget_memory(lab) -> None:
+    """Empty the process's caches of models, compiled functions, drawings and typeset formulas
+    (what a restarted server has); the disk cache stays."""
     import app.core.dynamics as dynamics
     import app.core.numeric as numeric
     import app.scene as scene
+    dynamics.forget_derivations()
+    for module, name in ((numeric, "_LAMBDA_CACHE"), (scene, "_FRAMES_CACHE")):
+        cache = getattr(module, name, None)
+        if isinstance(cache, dict):
+            cache.clear()
+    try:
+        from app.viewer import html_cache
+        html_cache._MEMORY.clear()
+    except ImportError:
+        pass
+    lab._robots.clear()
+
+
+def switching(browser, robots=SWITCH):
+    """Per robot: (first switch after a restart, switch again), each (wall, CPU); and cold switches."""
+    from app.viewer.screenshot import new_session, wait_ready
+    from app.core.dynamics import derive
+    from app.core.robot import load_robot
     saved = os.environ.get("R2LAB_CACHE")
-    for name in COLD:
-        with tempfile.TemporaryDirectory() as tmp:
-            os.environ["R2LAB_CACHE"] = tmp           # an empty disk cache
-            dynamics.forget_derivations()
-            numeric._LAMBDA_CACHE.clear()
-            scene._FRAMES_CACHE.clear()
-            lab._robots.clear()
-            cold[name] = _switch(page, session, name)
-            _switch(page, session, CACHED[0])
-    if saved is None:
-        os.environ.pop("R2LAB_CACHE", None)
-    else:
-        os.environ["R2LAB_CACHE"] = saved
-    page.context.close()
-    lab.stop()
-    return cached, cold
+    first, again, cold = {}, {}, {}
+    try:
+        with tempfile.TemporaryDirectory(prefix="r2lab-viewer-") as cache:
+            os.environ["R2LAB_CACHE"] = cache
+            for name in robots:                       # derived before: the disk cache holds them
+                derive(load_robot(name))
+            lab = _lab(robot="planar_2r")
+            try:
+                page = browser.page(lab.url + "?robot=planar_2r")
+                wait_ready(page, "planar_2r")
+                session = new_session(lab, set())
+                for name in robots:                   # warm the disk caches the page itself fills
+                    _switch(page, session, name)
+                _forget_memory(lab)
+                for name in robots:
+                    first[name] = _switch(page, session, name)
+                for name in robots:
+                    again[name] = _switch(page, session, name)
+                for name in COLD:
+                    with tempfile.TemporaryDirectory() as tmp:
+                        os.environ["R2LAB_CACHE"] = tmp           # an empty disk cache
+                        _forget_memory(lab)
+                        cold[name] = _switch(page, session, name)
+                        _switch(page, session, "planar_2r")
+                    os.environ["R2LAB_CACHE"] = cache
+                page.context.close()
+            finally:
+                lab.stop()
+    finally:
+        if saved is None:
+            os.environ.pop("R2LAB_CACHE", None)
+        else:
+            os.environ["R2LAB_CACHE"] = saved
+    return first, again, cold
 
 
 def drag(browser, seconds=3.0):
     from app.viewer.screenshot import slider_thumb, wait_ready, new_session
     from app.viewer.scene_view import SceneView
-    from app.commands.serve import lab_server
-    lab = lab_server(port=0, robot="planar_2r")
+    lab = _lab(robot="planar_2r")
     page = browser.page(lab.url)
     wait_ready(page, "planar_2r")
     session = new_session(lab, set())
@@ -191,27 +305,67 @@ def drag(browser, seconds=3.0):
             "server push capacity poses/s": push}
 
 
-def main():
+def figures(browser=None, robots=SWITCH, repeats: int = 3) -> list:
+    """The issue-16 figures of the page: (name, wall s, CPU s or None, goal or None, baseline text)."""
     from app.viewer.screenshot import Browser
+    own = browser is None
+    browser = browser or Browser()
+    try:
+        start = first_frame(browser, repeats)
+        first, again, _ = switching(browser, robots)
+    finally:
+        if own:
+            browser.close()
+    lab, base = start["lab"], start["viser"]
+    out = [("page: server up (python -m app serve)", lab["up"], lab["up cpu"], GOAL_UP,
+            f"viser's minimal app {base['up']:.2f} s, {base['up cpu']:.2f} s CPU"),
+           ("page: first frame after server up", lab["frame"], None, GOAL_FRAME,
+            f"viser's minimal app {base['frame']:.2f} s"),
+           ("page: ready after server up", lab["ready"], lab["cpu"] - lab["up cpu"], GOAL_READY, "")]
+    for name in robots:
+        out.append((f"switch to {name}, first after restart", *first[name], GOAL_SWITCH, "disk caches"))
+    worst = max(robots, key=lambda n: again[n][0])
+    out.append((f"switch again, slowest ({worst})", *again[worst], GOAL_SWITCH, "memory caches"))
+    return out
+
+
+def main(argv=None):
+    from app.viewer.screenshot import Browser
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.viewer")
+    parser.add_argument("--all-robots", action="store_true", help="time the switch to every shipped robot")
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--no-drag", action="store_true")
+    args = parser.parse_args(argv)
+    robots = SWITCH
+    if args.all_robots:
+        from app.core.catalog import list_robot_names
+        robots = [n for n in list_robot_names() if n != "planar_2r"] + ["planar_2r"]
+    print(f"load average at start: {' '.join(f'{x:.1f}' for x in os.getloadavg())}")
     with Browser() as browser:
-        runs = [first_frame(browser) for _ in range(3)]
-        listening = statistics.median(r[0] for r in runs)
-        frame = statistics.median(r[1] for r in runs)
-        ready = statistics.median(r[2] for r in runs)
-        print("start to first frame (planar_2r, median of 3)")
-        print(f"  server listening        {listening:6.2f} s")
-        print(f"  robot on the canvas     {frame:6.2f} s")
-        print(f"  panels built            {ready:6.2f} s")
-        cached, cold = switching(browser)
-        print("switch robots (until the new robot and its panels are in the browser)")
-        for name, t in cached.items():
-            print(f"  cached  {name:<26} {t:6.2f} s")
-        for name, t in cold.items():
-            print(f"  cold    {name:<26} {t:6.2f} s")
-        rates = drag(browser)
-        print("dragging the q1 slider for 3 s")
-        for key, value in rates.items():
-            print(f"  {key:<30} {value:8.1f}")
+        start = first_frame(browser, args.repeats)
+        print(f"start (median of {args.repeats}, interleaved; wall s, CPU s of the server process)")
+        print(f"  {'':<38}{'lab':>14}{'viser minimal app':>20}{'goal':>8}")
+        lab, base = start["lab"], start["viser"]
+        print(f"  {'server up (process start to address)':<38}{lab['up']:>6.2f} /{lab['up cpu']:>5.2f} CPU"
+              f"{base['up']:>11.2f} /{base['up cpu']:>5.2f} CPU{GOAL_UP:>6.1f}")
+        print(f"  {'first frame after server up':<38}{lab['frame']:>6.2f}{'':>8}{base['frame']:>11.2f}{'':>10}{GOAL_FRAME:>6.1f}")
+        print(f"  {'ready (panels built) after server up':<38}{lab['ready']:>6.2f} /{lab['cpu'] - lab['up cpu']:>5.2f} CPU"
+              f"{'':>20}{GOAL_READY:>6.1f}")
+        first, again, cold = switching(browser, robots)
+        print("switch robots, until the new robot and its panels are in the browser (wall s / CPU s of the "
+              f"server's process and its workers; goal {GOAL_SWITCH} s)")
+        print(f"  {'robot':<34}{'first after restart':>22}{'again':>18}")
+        for name in robots:
+            (w1, c1), (w2, c2) = first[name], again[name]
+            print(f"  {name:<34}{w1:>12.2f} /{c1:>5.2f} CPU{w2:>8.2f} /{c2:>5.2f} CPU")
+        for name, (w, c) in cold.items():
+            print(f"  cold {name:<29}{w:>12.2f} /{c:>5.2f} CPU")
+        if not args.no_drag:
+            rates = drag(browser)
+            print("dragging the q1 slider for 3 s")
+            for key, value in rates.items():
+                print(f"  {key:<30} {value:8.1f}")
+    print(f"load average at end: {' '.join(f'{x:.1f}' for x in os.getloadavg())}")
 
 
 if __name__ == "__main__":
