@@ -150,6 +150,20 @@ def optimize_and_verify(robot, values, objective: str, seed: int, budget: int, p
     return dataclasses.replace(result, throw=None, feasibility=None), sims
 
 
+
+def verify_throw(robot, values, spec: ThrowSpec, progress) -> list:
+    """The Verify button's work: the throw of ``spec`` simulated in the full dynamics under both
+    controllers (progress 0-0.5, then 0.5-1)."""
+    throw = ThrowingArm(robot, params=values).solve(spec)
+    sims = []
+    for k, controller in enumerate(("feedforward", "computed_torque")):
+        stage = controller.replace("_", " ")
+        progress(0.5 * k, stage)
+        sims.append(simulate_full(throw, controller,
+                                  progress=lambda f, m, k=k, stage=stage: progress(0.5 * (k + f), stage)))
+    return sims
+
+
 class ThrowStudio:
     """One tab's Throw studio: widgets, live solving, drawings, animation, optimizer."""
 
@@ -814,15 +828,11 @@ class ThrowStudio:
         self.verify_button.disabled = True
         self.verification.content = self._status("simulating the full arm ...")
 
+        arm = view.throw.arm
+
         def work(progress):
-            try:
-                sims = []
-                for k, controller in enumerate(("feedforward", "computed_torque")):
-                    stage = controller.replace("_", " ")
-                    progress(0.5 * k, stage)
-                    sims.append(simulate_full(view.throw, controller,
-                                              progress=lambda f, m, k=k, stage=stage: progress(0.5 * (k + f), stage)))
-                return sims
+            try:       # in a worker process of the server (app/viewer/worker.py)
+                return in_worker(verify_throw, arm.robot, arm.values, view.spec, progress=progress)
             finally:
                 if self._alive():
                     self.verify_button.disabled = False

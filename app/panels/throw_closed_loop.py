@@ -18,6 +18,8 @@ from app.core.errors import UserError
 from app.core.throw_control import CONTROLLERS, list_plant_names, load_plant
 from app.core.throw_catch import CAMERA_NOISE, CAMERA_RATE, ThrowAndCatch, throw_and_catch
 from app.core.throw_montecarlo import Study, histogram, monte_carlo
+from app.core.vhc import ThrowingArm
+from app.viewer import in_worker
 
 from .throw_plots import BLOCK
 
@@ -123,6 +125,13 @@ def summary_table(study: Study, controllers) -> str:
             f'release speed {study.planned_speed:.4f} m/s; {study.plants} plants, seed {study.seed}.</div>')
 
 
+
+def closed_loop_study(robot, values, spec, plant, count: int, seed: int, progress) -> Study:
+    """The closed-loop study's work: ``count`` plants drawn from ``plant`` throwing ``spec``
+    under each controller (``monte_carlo``)."""
+    throw = ThrowingArm(robot, params=values).solve(spec)
+    return monte_carlo(throw, plant, CONTROLLERS, count, seed=seed, progress=progress)
+
 class ClosedLoopTab:
     """Widgets of the *Closed loop* tab; ``studio`` is the ThrowStudio (its ``view`` is the throw on display)."""
 
@@ -208,7 +217,9 @@ class ClosedLoopTab:
                     self.progress.value = 100 * fraction
                     self.status.content = studio._status(message)
             try:
-                return monte_carlo(view.throw, plant, CONTROLLERS, count, seed=seed, progress=report)
+                arm = view.throw.arm        # the study runs in a worker process (app/viewer/worker.py)
+                return in_worker(closed_loop_study, arm.robot, arm.values, view.spec, plant, count, seed,
+                                 progress=report)
             finally:
                 self._running = False
                 if studio._alive():

@@ -96,6 +96,7 @@ class LabServer:
         self.max_jobs = max(1, os.cpu_count() or 1)
         self._job_slots = threading.BoundedSemaphore(self.max_jobs)
         self.workers = WorkerPool(self.max_jobs)     # heavy jobs' processes (app/viewer/worker.py)
+        self.checks = WorkerPool(1)                  # the pinocchio badges' cross-checks
         self.policy = HandshakePolicy(host)
         with self._quiet(), handshake_checked(self.policy):
             self.viser = viser.ViserServer(host=host, port=port, label="Robotics II Lab", verbose=verbose)
@@ -114,6 +115,7 @@ class LabServer:
         for session in list(self.sessions.values()):
             session.close()
         self.workers.close()
+        self.checks.close()
         with self._quiet():
             self.viser.stop()
 

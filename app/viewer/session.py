@@ -31,7 +31,7 @@ from app.viewer.panel_api import JobCancelled, PanelSpec  # noqa: F401 (JobCance
 from app.viewer.picker import RobotPicker
 from app.viewer.presenter import Presenter
 from app.viewer.scene_view import SceneView
-from app.viewer.worker import derive_in_worker, in_worker
+from app.viewer.worker import NotPortable, derive_in_worker, in_worker
 
 # order of the page's fixed elements (panels' tab group comes last)
 ORDER_STYLE, ORDER_PICKER, ORDER_INFO, ORDER_BADGE, ORDER_PROGRESS = 0, 1, 3, 4, 5
@@ -526,6 +526,7 @@ class Session:
     def _run_check(self) -> None:
         with self._lock:
             robot, values, generation = self.robot, dict(self.params), self.generation
+            dynamics = self.dynamics
             ready = self.numeric is not None
             if ready:
                 self.checks += 1
@@ -535,7 +536,7 @@ class Session:
             return
         self._badge.content = self._badge_html("pending", "pinocchio cross-check: running", check)
         try:
-            result = cross_check(robot, values, states=30)
+            result = self._cross_check(robot, values, dynamics)
         except Exception as exc:
             text, state = f"pinocchio cross-check failed: {exc}", "bad"
         else:
@@ -548,6 +549,18 @@ class Session:
         with self._lock:
             if generation == self.generation and values == self.params and not self.closed:
                 self._badge.content = self._badge_html(state, text, check)
+
+    def _cross_check(self, robot, values, dynamics):
+        """``cross_check`` in the server's checking process (its compiled model and pinocchio's
+        never hold this process's interpreter lock), or here when there is none."""
+        pool = getattr(self.lab, "checks", None)
+        if pool is not None:
+            try:
+                return pool.call(cross_check, (robot, values), {"states": 30, "dynamics": dynamics},
+                                 lambda: self.closed)
+            except NotPortable:
+                pass
+        return cross_check(robot, values, states=30, dynamics=dynamics)
 
     # ================================================================== panels
     def _build_panels(self, generation: int) -> None:

@@ -15,8 +15,9 @@ worker process within 0.1 s (a new one is started for the next job), so a
 computation is stopped even when it does not report. Outside such a job (the command line, tests of
 the core) ``in_worker`` just calls ``fn`` here.
 
-The pool (``WorkerPool``, one per ``LabServer``) keeps at most ``size`` processes (one per core,
-the server's job limit), started when first needed as fresh interpreters (no copy of the server's
+The pool (``WorkerPool``, one per ``LabServer``) runs at most ``size`` jobs at once in as many
+processes (one per core, the server's job limit; a second pool of one process takes the pinocchio
+badge's cross-checks), started when first needed as fresh interpreters (no copy of the server's
 threads and locks), each lowered in priority (``os.nice``) so that the server's event loop
 wins the CPU; a worker whose memory grew past ``max_rss_mb`` is replaced after its job.
 """
@@ -243,6 +244,7 @@ class WorkerPool:
         self._idle: List[_Worker] = []
         self._busy: List[_Worker] = []
         self._closed = False
+        self._free = threading.BoundedSemaphore(self.size)   # at most ``size`` jobs at once
         self.started = 0            # worker processes started so far
         self.killed = 0             # killed by a Cancel or a closed tab
 
@@ -292,7 +294,14 @@ class WorkerPool:
         worker's reports here. Raises JobCancelled (and kills the worker) as soon as
         ``cancelled()`` is true or ``progress`` raises it."""
         progress = kwargs.get("progress")
-        worker = self._take()
+        while not self._free.acquire(timeout=0.1):       # every worker busy: wait for one
+            if cancelled():
+                raise JobCancelled(getattr(fn, "__name__", "job"))
+        try:
+            worker = self._take()
+        except BaseException:
+            self._free.release()
+            raise
         healthy = False
         try:
             try:
@@ -335,6 +344,7 @@ class WorkerPool:
                     raise rest[0]
         finally:
             self._release(worker, healthy)
+            self._free.release()
 
     def close(self) -> None:
         """Stop every worker (jobs still running are killed)."""
