@@ -29,6 +29,8 @@ class Browser:
             raise RuntimeError(f"{CHROMIUM} not found: install Debian's chromium (make browser)")
         self._pw = sync_playwright().start()
         self.browser = self._pw.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS, headless=True)
+        #: (id of the lab, width, height) -> (page, session): a tab ``capture`` keeps for the next picture
+        self.kept_tabs: dict = {}
 
     def page(self, url: str, width: int = WIDTH, height: int = HEIGHT):
         context = self.browser.new_context(viewport={"width": width, "height": height}, device_scale_factor=1)
@@ -153,8 +155,15 @@ def capture(robot: str, out: str | Path, panel: Optional[str] = None,
     browser = browser or Browser()
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
+    # a picture of a tab without browser-side actions leaves the tab as a robot switch resets it:
+    # the next such picture reuses it (issue 16: a page takes seconds to boot in software WebGL)
+    reusable = panel is not None and action is None
+    key = (id(lab), width, height)
     try:
-        page, session = open_tab(lab, browser, robot, tab=panel, width=width, height=height)
+        page, session = _kept_tab(browser, key, robot, panel) if reusable else (None, None)
+        if page is None:
+            page, session = open_tab(lab, browser, robot, tab=panel, width=width, height=height)
+        keep = False
         try:
             if setup is not None:
                 setup(session)
@@ -166,16 +175,72 @@ def capture(robot: str, out: str | Path, panel: Optional[str] = None,
                 scroll_to_tab(page, panel)
             if action is not None:
                 action(page)
-            settle(page, 1.5)
-            page.screenshot(path=str(out))
+            save_still(page, out)
+            keep = reusable and not own_browser
         finally:
-            page.context.close()
+            if keep:
+                browser.kept_tabs[key] = (page, session)
+            else:
+                page.context.close()
     finally:
         if own_browser:
             browser.close()
         if own_lab:
             lab.stop()
     return out
+
+
+def save_still(page, out: Path, least: float = 0.5, most: float = 4.0) -> None:
+    """Save a picture of the page once software WebGL has drawn the last change: after ``least``
+    seconds, the first of two pictures in a row that are the same (at most ``most`` seconds)."""
+    settle(page, least)
+    deadline = time.time() + most
+    shot = page.screenshot()
+    while time.time() < deadline:
+        page.wait_for_timeout(100)
+        again = page.screenshot()
+        if again == shot:
+            break
+        shot = again
+    Path(out).write_bytes(shot)
+
+
+def _kept_tab(browser: "Browser", key, robot: str, tab: str):
+    """The tab a previous picture kept, switched to ``robot`` (a switch resets the coordinates, the
+    parameters, the camera and the panels built per robot) with ``tab`` open; (None, None) when
+    there is none or it went away."""
+    kept = getattr(browser, "kept_tabs", {}).pop(key, None)
+    if kept is None:
+        return None, None
+    page, session = kept
+    try:
+        if session.closed or page.is_closed():
+            raise RuntimeError("the kept tab went away")
+        session.load_robot(robot)
+        if not session.ready.wait(120):
+            raise RuntimeError(f"{robot} not ready after 120 s")
+        _barrier(page, session)                   # the browser has every update sent before
+        wait_ready(page, robot)
+        select_tab(page, tab)
+        return page, session
+    except Exception:
+        try:
+            page.context.close()
+        except Exception:
+            pass
+        return None, None
+
+
+def _barrier(page, session, timeout: float = 60.0) -> None:
+    """Until the browser has applied every update the server sent to this tab so far (an empty
+    element added now and removed once the page shows it: updates arrive in order)."""
+    import uuid
+    nonce = uuid.uuid4().hex
+    handle = session.gui.add_html(f'<span class="r2-barrier" data-n="{nonce}"></span>')
+    try:
+        page.wait_for_selector(f'.r2-barrier[data-n="{nonce}"]', state="attached", timeout=timeout * 1000)
+    finally:
+        handle.remove()
 
 
 def new_session(lab, before, timeout: float = 30.0):
