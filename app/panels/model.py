@@ -69,18 +69,7 @@ def build(session) -> None:
     gui.add_html(f'<span class="r2-model" data-robot="{robot.name}"></span>' + mathml.label_html(
         "Symbolic model of the robot file; the blue values are evaluated at the sliders' q, the "
         "velocity q̇ below, and the current parameters." + legend))
-    with gui.add_folder("Velocity q̇ for C and c", expand_by_default=False):
-        fields = []
-        for i, name in enumerate(coords):
-            field = gui.add_number(f"d{name}", 1.0, step=0.1, hint=f"velocity of {name} used for C(q, q̇) and c")
-            fields.append(field)
-
-        def velocity_changed(_event):
-            dq_state["dq"] = np.array([float(f.value) for f in fields])
-            refresh()
-
-        for field in fields:
-            field.on_update(velocity_changed)
+    _velocity_fields(gui, coords, dq_state, lambda: refresh())
 
     num = session.numeric
 
@@ -125,36 +114,57 @@ def build(session) -> None:
         session, model_entries(robot, dyn),
         lambda entry, text, hint: check_model_entry(robot, dyn, entry, text, hint=hint), expand=True)
 
-    download = gui.add_button("Download the model (LaTeX)", hint="a .tex fragment (amsmath) of the formulas above "
-                              "and the derivation steps")
-    download.on_click(lambda event: event.client.send_file_download(
-        f"{robot.name}_model.tex", model_tex(robot, dyn, steps=True).encode("utf-8"), save_immediately=True))
+    _download_button(gui, robot, dyn)
 
     def refresh(*_):
         for handle, fn in updaters:
             handle.content = fn()
 
-    def presenter_switched(on):
-        """Presenter mode: the formulas laid out again for the width of the larger math."""
-        if session.generation != generation:
-            return
-        width = presenter.math_width_em(mathml.PANEL_WIDTH_EM)
-
-        def work(progress):
-            progress(0.0, "formulas")
-            return [typeset(title, make_blocks) for _, title, make_blocks in symbolic]
-
-        def done(htmls):
-            with session.holding(generation) as current:
-                if current and layout["width"] == width:
-                    for (handle, _, _), html in zip(symbolic, htmls):
-                        handle.content = html
-
-        layout["width"] = width
-        session.run_in_background(work, "Laying out the formulas", on_done=done)
-
     generation = session.generation
-    session.on_presenter_change(presenter_switched)
+    session.on_presenter_change(lambda on: _relayout(session, generation, layout, symbolic, typeset))
     refresh()
     session.on_q_change(refresh)
     session.on_parameters_change(refresh)
+
+
+def _velocity_fields(gui, coords, dq_state, refresh) -> None:
+    """The folder of the velocity q̇ used for C and c (``dq_state["dq"]``, then ``refresh()``)."""
+    with gui.add_folder("Velocity q̇ for C and c", expand_by_default=False):
+        fields = []
+        for i, name in enumerate(coords):
+            field = gui.add_number(f"d{name}", 1.0, step=0.1, hint=f"velocity of {name} used for C(q, q̇) and c")
+            fields.append(field)
+
+        def velocity_changed(_event):
+            dq_state["dq"] = np.array([float(f.value) for f in fields])
+            refresh()
+
+        for field in fields:
+            field.on_update(velocity_changed)
+
+
+def _download_button(gui, robot, dyn) -> None:
+    download = gui.add_button("Download the model (LaTeX)", hint="a .tex fragment (amsmath) of the formulas above "
+                              "and the derivation steps")
+    download.on_click(lambda event: event.client.send_file_download(
+        f"{robot.name}_model.tex", model_tex(robot, dyn, steps=True).encode("utf-8"), save_immediately=True))
+
+
+def _relayout(session, generation: int, layout: Dict, symbolic: List, typeset: Callable) -> None:
+    """Presenter mode: the formulas laid out again for the width of the larger math."""
+    if session.generation != generation:
+        return
+    width = session.presenter.math_width_em(mathml.PANEL_WIDTH_EM)
+
+    def work(progress):
+        progress(0.0, "formulas")
+        return [typeset(title, make_blocks) for _, title, make_blocks in symbolic]
+
+    def done(htmls):
+        with session.holding(generation) as current:
+            if current and layout["width"] == width:
+                for (handle, _, _), html in zip(symbolic, htmls):
+                    handle.content = html
+
+    layout["width"] = width
+    session.run_in_background(work, "Laying out the formulas", on_done=done)
