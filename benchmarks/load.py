@@ -19,9 +19,12 @@ Checked and printed: p50/p95/max latency per phase, samples lost (no pose within
 heavy clients' work done (derivations, optimizer runs, towers refused), per-client independence
 (every link1 angle a client receives is one it set itself, or its initial 0), the server's
 resident memory (RSS) after the clients connected, at its peak, at the end and 5 s after every
-client left, and the load average. ``--switch-interval 0.001`` starts the server with a shorter
-interpreter-lock switch interval (to compare); ``R2LOAD_DEBUG=1`` prints lost samples and the
-clients' connection errors.
+client left, the peak RSS of its worker processes (app/viewer/worker.py, where the heavy jobs
+run), the CPU time of the server's own process and of its workers in each phase (on a shared
+machine wall-clock latencies follow the other jobs; CPU time does not), and the load average at
+each phase's start and end. ``--switch-interval 0.001`` starts the server with a shorter
+interpreter-lock switch interval (to compare; by default the server keeps Python's 0.005 s);
+``R2LOAD_DEBUG=1`` prints lost samples and the clients' connection errors.
 """
 from __future__ import annotations
 
