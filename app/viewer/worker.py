@@ -129,11 +129,20 @@ class _Duplex:
         self.recv, self.send = recv.recv, send.send
 
 
+def _orphan_watch(parent: int) -> None:
+    """End the worker when the server is gone (killed: no one would read its result)."""
+    while True:
+        time.sleep(1.0)
+        if os.getppid() != parent:
+            os._exit(3)
+
+
 def _serve(conn, nice: int) -> None:
     try:
         os.nice(nice)
     except OSError:
         pass
+    threading.Thread(target=_orphan_watch, args=(os.getppid(),), daemon=True, name="orphan-watch").start()
     while True:
         try:
             message = conn.recv()
