@@ -11,8 +11,8 @@ match:
 - the command and its options (``--json``, ``--known``, ``--steps``, ``--set`` ...; the terminal's
   width for the text forms, which sympy's pretty printer wraps to);
 - the file named on the command line: its resolved path and the hash of its content;
-- the engine version: a hash of the source of app/core (every module), of the commands that
-  render (derive, solve), of the shipped throw data, and of the installed sympy and numpy versions.
+- the engine version: a hash of the source of app/core (every module), of the commands (which
+  render), of the shipped throw data, and of the installed sympy and numpy versions.
 
 The payload holds the text printed and the other files the answer read (an exercise's robot file),
 each with the reference it was named by and the hash of its content; when one of them changed, or
@@ -69,7 +69,7 @@ def engine_version() -> str:
     if _engine is None:
         h = hashlib.sha256(f"{sys.version_info[:2]}".encode())
         files = sorted((APP_DIR / "core").rglob("*.py")) + sorted((APP_DIR / "throws").rglob("*.yaml"))
-        files += [APP_DIR / "commands" / "derive.py", APP_DIR / "commands" / "solve.py"]
+        files += sorted((APP_DIR / "commands").glob("*.py"))
         for package, name in (("sympy", "release.py"), ("numpy", "version.py")):
             spec = importlib.util.find_spec(package)     # finds the package without importing it
             if spec is not None and spec.origin:
