@@ -100,11 +100,10 @@ class FakeSession:
         self.scene = FakeScene()
         self.drawing = RobotDrawing(load_robot(robot_name), values)
 
-    class client:
-        @staticmethod
-        @contextmanager
-        def atomic():
-            yield
+    @staticmethod
+    @contextmanager
+    def atomic():
+        yield
 
 
 def _step(solution, title):
