@@ -1,10 +1,13 @@
 """Derivation speed of the engine against sympy.physics.mechanics, and numeric evaluation of
 M, C, g against pinocchio, measured in the same process.
 
-Baseline (derivation): ``LagrangesMethod`` on the same robot (same kinematics), then
-``simplify`` of the mass matrix and the forcing vector: what a user of sympy.physics.mechanics
-does to get a readable model. Ours: ``derive`` cold (no cache), which produces M, Christoffel
-symbols, C, c, g, the minimal regressor, the adaptive regressor and the steps.
+Baselines (derivation): ``LagrangesMethod`` on the same robot (same kinematics), alone and followed by
+``simplify`` of the mass matrix and the forcing vector (what a user of sympy.physics.mechanics does
+to get a readable model). Ours: ``derive`` without the disk cache, which produces M, Christoffel
+symbols, C, c, g, the minimal regressor, the adaptive regressor and the steps. Cold means cold:
+before every run, of ours and of the baselines alike, our in-memory derivations and displayed
+coefficients and sympy's own cache are emptied. CPU time (``time.process_time``) beside wall time;
+the median of 3 runs interleaved round by round (ours, plain, simplify; ours, ...).
 
 Run: ``python -m benchmarks.derive``.
 """
@@ -18,7 +21,9 @@ import numpy as np
 import sympy as sp
 from sympy.physics import mechanics as me
 
-from app.core.dynamics import derive
+from sympy.core.cache import clear_cache
+
+from app.core.dynamics import derive, forget_derivations
 from app.core.kinematics import Kinematics
 from app.core.numeric import NumericModel, PinocchioTwin
 from app.core.robot import load_robot
@@ -27,9 +32,8 @@ HERE = Path(__file__).resolve().parent / "robots"
 ROBOTS = ["bench_2r", "bench_3r", "bench_spatial_3r"]
 
 
-def mechanics_baseline(robot) -> float:
-    """Seconds for sympy.physics.mechanics to give simplified M and forcing for the robot."""
-    t0 = time.perf_counter()
+def mechanics_baseline(robot, simplify: bool = True) -> None:
+    """sympy.physics.mechanics's M and forcing for the robot (simplified when ``simplify``)."""
     kin = Kinematics(robot)
     qs = me.dynamicsymbols(" ".join(robot.coordinates))
     qs = qs if isinstance(qs, (list, tuple)) else [qs]
@@ -57,15 +61,19 @@ def mechanics_baseline(robot) -> float:
     L = me.Lagrangian(N, *bodies)
     lm = me.LagrangesMethod(L, qs)
     lm.form_lagranges_equations()
-    sp.simplify(lm.mass_matrix)
-    sp.simplify(lm.forcing)
-    return time.perf_counter() - t0
+    if simplify:
+        sp.simplify(lm.mass_matrix)
+        sp.simplify(lm.forcing)
 
 
-def ours(robot) -> float:
-    t0 = time.perf_counter()
-    derive(robot, use_cache=False)
-    return time.perf_counter() - t0
+def cold(run) -> tuple:
+    """(CPU, wall) seconds of ``run()`` with every memory emptied first: our derivations and
+    displayed coefficients (``forget_derivations``) and sympy's own cache, for every contender."""
+    forget_derivations()
+    clear_cache()
+    c0, w0 = time.process_time(), time.perf_counter()
+    run()
+    return time.process_time() - c0, time.perf_counter() - w0
 
 
 def numeric_ratio(robot, calls: int = 20000):
@@ -95,13 +103,20 @@ def numeric_ratio(robot, calls: int = 20000):
 
 
 def main(repeats: int = 3) -> None:
-    print("Derivation, cold (seconds; median of %d)" % repeats)
-    print(f"{'robot':<18}{'ours':>8}{'sympy.mechanics':>17}{'speed-up':>10}")
+    print("Derivation, cold: our memories and sympy's cache emptied before every run; CPU seconds (wall "
+          "in brackets), median of %d runs interleaved round by round" % repeats)
+    print(f"{'robot':<18}{'ours':>14}{'mechanics':>14}{'+ simplify':>14}{'speed-up':>9}{'(plain)':>9}")
     for name in ROBOTS:
         robot = load_robot(HERE / f"{name}.yaml")
-        t_ours = statistics.median(ours(robot) for _ in range(repeats))
-        t_base = statistics.median(mechanics_baseline(robot) for _ in range(repeats))
-        print(f"{name:<18}{t_ours:>8.2f}{t_base:>17.2f}{t_base / t_ours:>9.1f}x")
+        runs = {"ours": [], "plain": [], "simplify": []}
+        for _ in range(repeats):
+            runs["ours"].append(cold(lambda: derive(robot, use_cache=False)))
+            runs["plain"].append(cold(lambda: mechanics_baseline(robot, simplify=False)))
+            runs["simplify"].append(cold(lambda: mechanics_baseline(robot, simplify=True)))
+        med = {k: (statistics.median(c for c, _ in v), statistics.median(w for _, w in v)) for k, v in runs.items()}
+        cells = "".join(f"{f'{c:.2f} ({w:.2f})':>14}" for c, w in med.values())
+        print(f"{name:<18}{cells}{med['simplify'][0] / med['ours'][0]:>8.1f}x{med['plain'][0] / med['ours'][0]:>8.1f}x",
+              flush=True)
     print("\nNumeric M, C, g per call (microseconds)")
     print(f"{'robot':<18}{'ours':>8}{'pin (mapped)':>14}{'pin raw':>9}{'ours/raw':>10}")
     for name in ROBOTS:

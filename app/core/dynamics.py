@@ -22,7 +22,7 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import sympy as sp
 
-from . import compact, model_cache, reproducible_sympy
+from . import compact, model_cache, reproducible_sympy, steps
 from .compact import natural_angles, nice_coefficient, pretty, tidy  # noqa: F401 (pretty: public here too)
 from .expressions import ExpressionError, NotStorable, dump_exact_list, load_exact_list, symbol
 from .kinematics import Kinematics
@@ -235,11 +235,13 @@ def is_derived(robot: RobotModel, known: Optional[Sequence[str]] = None) -> bool
 
 
 def forget_derivations() -> None:
-    """Empty the in-memory caches of derivations and displayed coefficients (not the disk cache):
-    the next ``derive`` works from scratch or from disk. Used by honest (cold) benchmarks."""
+    """Empty the in-memory caches of derivations, displayed coefficients and printed entries (not the
+    disk cache, not sympy's own cache): the next ``derive`` works from scratch or from disk. Used by
+    honest (cold) benchmarks."""
     with _lock:
         _memory.clear()
     compact.forget()
+    steps.forget()
 
 
 class _Deriver:

@@ -180,6 +180,11 @@ def to_latex(expr, coordinates=None, short_trig: bool = True, **kwargs) -> str:
 _ENTRY_LATEX: Dict[tuple, str] = {}
 
 
+def forget() -> None:
+    """Empty the memory of printed entries (for cold benchmarks)."""
+    _ENTRY_LATEX.clear()
+
+
 def _entry_latex(entry, coords: tuple, short_trig: bool) -> str:
     key = (entry, coords, short_trig)
     text = _ENTRY_LATEX.get(key)
