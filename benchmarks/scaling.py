@@ -15,7 +15,8 @@ the next spatial chain) are not tried (shown as "> 120").
 
 Goals (issue 16): planar chains up to 7 joints <= 10 s CPU; spatial 4 joints <= 10 s; the 6R <= 120 s.
 
-Run: ``python -m benchmarks.scaling`` (``--write`` rewrites the robot files).
+Run: ``python -m benchmarks.scaling`` (``--write`` rewrites the robot files; ``--kinds ours,plain``
+measures some columns only).
 """
 from __future__ import annotations
 
@@ -167,5 +168,7 @@ if __name__ == "__main__":
         _one(sys.argv[2], sys.argv[3])
     elif sys.argv[1:2] == ["--write"]:
         write_robots()
+    elif sys.argv[1:2] == ["--kinds"]:      # e.g. --kinds plain,simplify: some columns only
+        main(kinds=tuple(sys.argv[2].split(",")))
     else:
         main()
