@@ -102,6 +102,21 @@ def numeric_ratio(robot, calls: int = 20000):
     return t_ours, t_pin, t_raw
 
 
+def figures() -> list:
+    """(name, wall s, CPU s, None, note, "cpu"): one cold derivation of each benchmark robot beside
+    LagrangesMethod alone and + simplify, interleaved (``main``: the median of 3 and the numeric part)."""
+    out = []
+    for name in ROBOTS:
+        robot = load_robot(HERE / f"{name}.yaml")
+        c, w = cold(lambda: derive(robot, use_cache=False))
+        plain = cold(lambda: mechanics_baseline(robot, simplify=False))[0]
+        full = cold(lambda: mechanics_baseline(robot, simplify=True))[0]
+        out.append((f"derive {name} (cold, in process)", w, c, None,
+                    f"{full / c:.0f}x faster than LagrangesMethod + simplify ({full:.1f} s CPU), "
+                    f"{plain / c:.1f}x than LagrangesMethod alone ({plain:.2f} s)", "cpu"))
+    return out
+
+
 def main(repeats: int = 3) -> None:
     print("Derivation, cold: our memories and sympy's cache emptied before every run; CPU seconds (wall "
           "in brackets), median of %d runs interleaved round by round" % repeats)

@@ -140,6 +140,19 @@ def _cell(m, cap=CAP) -> str:
     return f"> {cap:.0f}" if m is None else f"{m[0]:.1f} ({m[1]:.1f})"
 
 
+def figures() -> list:
+    """(name, wall s, CPU s, goal, note, "cpu") of the three chains with a goal, ours beside
+    LagrangesMethod without simplify (the cheaper baseline; the full table: ``main``)."""
+    out = []
+    for name, goal in GOALS.items():
+        ours, plain = measure("ours", name), measure("plain", name)
+        base = f"{plain[0]:.1f} s CPU" if plain else f"> {CAP:.0f} s CPU"
+        ratio = f"{plain[0] / ours[0]:.1f}x faster than " if plain and ours else ""
+        out.append((f"derive {name} (cold, fresh process)", ours[1] if ours else CAP, ours[0] if ours else CAP,
+                    goal, f"{ratio}LagrangesMethod alone ({base})", "cpu"))
+    return out
+
+
 def main(families=(PLANAR, SPATIAL + PUMA), kinds=("ours", "plain", "simplify")) -> None:
     """Every contender over every family (ours first: the baselines take far longer); a line per
     figure as it comes, then the table."""
