@@ -15,7 +15,7 @@ import msgspec
 import pytest
 from websockets.sync.client import connect
 
-from app.viewer.session import JobCancelled
+from app.viewer import JobCancelled
 from test_server_guard import PROTOCOL, say_hello, wait_for, ws_url
 
 # most CPU time a computation may spend between two progress calls (measured: at most 0.15 s of

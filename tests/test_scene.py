@@ -9,7 +9,7 @@ import pytest
 from app.core.numeric import NumericModel, ParameterError
 from app.core.robot import list_robot_names, load_robot
 from app.scene import RobotDrawing, camera_pose, default_q, quaternion_wxyz
-from app.viewer.session import Coalescer, parse_parameter
+from app.viewer import Coalescer, parse_parameter
 
 
 def world(drawing, part, q, local):

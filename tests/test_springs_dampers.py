@@ -13,7 +13,7 @@ from app.core.expressions import symbol
 from app.core.numeric import NumericModel, ParameterError, cross_check
 from app.core.robot import load_robot, parse_robot
 from app.core.trig import equal
-from app.viewer.session import parse_parameter
+from app.viewer import parse_parameter
 
 ROBOT = "elastic_pendulum_damped"
 

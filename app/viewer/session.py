@@ -27,7 +27,7 @@ from app.viewer import mathml, url_state
 from app.viewer.coalescer import Coalescer
 from app.viewer.fields import CommittedField, format_number, parse_parameter
 from app.viewer.jobs import JobRunner
-from app.viewer.panel_api import JobCancelled, PanelSpec  # noqa: F401 (JobCancelled: the old place)
+from app.viewer.panel_api import PanelSpec
 from app.viewer.picker import RobotPicker
 from app.viewer.presenter import Presenter
 from app.viewer.scene_view import SceneView
