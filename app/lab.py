@@ -25,8 +25,10 @@ from app.core.sim import SimResult
 from app.core.sim import simulate as _simulate
 from app.core.tex import model_tex, solution_tex
 from app.core.urdf import to_urdf
-from app.core.vhc import (DEFAULT_EVALUATIONS, OptimizationResult, Throw, ThrowingArm, ThrowOptimizer,
-                          load_throw_config)
+from app.core.throw.arm import ThrowingArm
+from app.core.throw.config import load_throw_config
+from app.core.throw.optimize import DEFAULT_EVALUATIONS, OptimizationResult, ThrowOptimizer
+from app.core.throw.reduced import Throw
 
 __all__ = ["robots", "robot", "model", "numeric", "twin", "check", "controllers", "simulate", "throw",
            "optimize_throw", "exercises", "exercise", "solve", "urdf", "latex"]

@@ -17,7 +17,9 @@ import time
 import numpy as np
 
 from app.core.numeric import NumericModel
-from app.core.vhc import DEFAULT_EVALUATIONS, ThrowingArm, ThrowOptimizer, thesis_throw
+from app.core.throw.arm import ThrowingArm
+from app.core.throw.config import thesis_throw
+from app.core.throw.optimize import DEFAULT_EVALUATIONS, ThrowOptimizer
 
 
 def naive_theta_dot_e(arm: ThrowingArm, spec, N: int) -> float:

@@ -8,9 +8,11 @@ from __future__ import annotations
 
 import time
 
-from app.core.throw_control import Controller, load_plant, simulate_closed_loop
-from app.core.throw_montecarlo import draw_plants, format_summary, monte_carlo
-from app.core.vhc import ThrowingArm, load_throw_config
+from app.core.throw.closed_loop import Controller, simulate_closed_loop
+from app.core.throw.plants import load_plant
+from app.core.throw.montecarlo import draw_plants, format_summary, monte_carlo
+from app.core.throw.arm import ThrowingArm
+from app.core.throw.config import load_throw_config
 
 
 def _timed(fn):

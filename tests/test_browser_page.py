@@ -234,7 +234,7 @@ def test_number_fields_take_the_value_when_typing_pauses(lab, browser):
         page.get_by_role("tab", name="Edit", exact=True).click()
         spring = shots.field(page, "Spring k [N m/rad]")
         walk.type_text(spring, "1e9")
-        shots.wait_until(lambda: studio.values["k"] == pytest.approx(1e9, rel=1e-12), 5, "k = 1e9")
+        shots.wait_until(lambda: studio.draft.k == pytest.approx(1e9, rel=1e-12), 5, "k = 1e9")
         assert len([n for n in notifications(page) if "Spring" in n]) <= 1
     finally:
         page.context.close()

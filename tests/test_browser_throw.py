@@ -9,8 +9,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from app.core.vhc import ThrowingArm, load_throw_config, thesis_throw
-from app.panels.throw import format_points
+from app.core.throw.arm import ThrowingArm
+from app.core.throw.config import load_throw_config, thesis_throw
+from app.core.throw.study import format_points
 from app.viewer import screenshot as shots
 
 
@@ -161,7 +162,7 @@ def test_breaking_edits_are_flagged_and_the_last_good_throw_stays(lab, browser, 
         _legend, chart = studio.plots["speeds"]
         assert np.max(chart.data[5]) > 1.2 and np.allclose(chart.data[4], 1.0)
         # the first control point of phi1 lowered by 0.5 rad: the ball can no longer be reached
-        a = list(studio.values["a"])
+        a = list(studio.draft.a)
         a[0] -= 0.5
         typed(page, "φ1 points a [rad]", format_points(a))
         badge(page, "error", "cannot be reached", "beyond the reach of link 3", "keep the last throw")
@@ -175,7 +176,7 @@ def test_breaking_edits_are_flagged_and_the_last_good_throw_stays(lab, browser, 
         badge(page, "error", "changes sign")
         # nonsense typed is refused with a message and the last good list comes back
         typed(page, "φ1 points a [rad]", "1.2, nan")
-        wait_until(lambda: studio.a_text.value == format_points(a), timeout=10, what="the list to come back")
+        wait_until(lambda: studio.editor.a_text.value == format_points(a), timeout=10, what="the list to come back")
         # back to a good list: a throw again
         a[0] -= 0.5
         typed(page, "φ1 points a [rad]", format_points(a))
@@ -191,7 +192,7 @@ def test_a_control_point_is_dragged_with_the_mouse(lab, browser):
         load_optimized(page, studio)
         studio.show_time(0.0)
         shots.settle(page, 1.5)
-        before = list(studio.values["b"])
+        before = list(studio.draft.b)
         point = np.array(studio.nodes.get("chart_point_b3").position)
         for attempt in range(3):      # the point is grabbed where it is drawn once the camera has come to rest
             wait_until(lambda: camera_at_rest(session), timeout=30, what="the camera to come to rest")
@@ -204,20 +205,20 @@ def test_a_control_point_is_dragged_with_the_mouse(lab, browser):
                 time.sleep(0.05)
             page.mouse.up()
             try:
-                wait_until(lambda: studio.values["b"][3] < before[3] - 0.05, timeout=10, what="b3 to follow the mouse")
+                wait_until(lambda: studio.draft.b[3] < before[3] - 0.05, timeout=10, what="b3 to follow the mouse")
                 break
             except AssertionError:
                 if attempt == 2:
                     raise
-        assert studio.values["b"][:3] == before[:3] and studio.values["b"][4:] == before[4:]
-        assert studio.selected == ("b", 3)
-        wait_until(lambda: abs(studio.point_value.value - studio.values["b"][3]) < 1e-9, what="the point slider")
+        assert studio.draft.b[:3] == before[:3] and studio.draft.b[4:] == before[4:]
+        assert studio.editor.selected == ("b", 3)
+        wait_until(lambda: abs(studio.editor.point_value.value - studio.draft.b[3]) < 1e-9, what="the point slider")
         # the chart's scale: the pointer moved 16 px down, the point moved by as much on the chart
         g = studio.chart.geometry
         px_per_m = abs(shots.project(session.client.camera, [point + [0, 1.0, 0]], shots.page_size(page))[0][1] - y)
-        moved = (before[3] - studio.values["b"][3]) * g.height / (g.hi - g.lo) * px_per_m
+        moved = (before[3] - studio.draft.b[3]) * g.height / (g.hi - g.lo) * px_per_m
         assert 8 < moved < 24
-        wait_until(lambda: studio.view is not None and studio.view.spec.b[3] == studio.values["b"][3],
+        wait_until(lambda: studio.view is not None and studio.view.spec.b[3] == studio.draft.b[3],
                    what="the dragged throw to be solved")
         assert badge(page, "infeasible")       # b3 lowered: joint 1 too fast
     finally:
@@ -265,7 +266,7 @@ def test_closed_loop_tab_runs_the_monte_carlo_and_shows_the_histogram(lab, brows
 # ---------------------------------------------------------------------- what the studio draws (no browser)
 @pytest.fixture(scope="module")
 def view_one(arm):
-    from app.panels.throw_plots import evaluate
+    from app.core.throw.study import evaluate
     return evaluate(arm, thesis_throw("throw1"))
 
 
@@ -287,7 +288,8 @@ def test_speed_plot_fills_exactly_the_part_over_the_limit(view_one):
 
 
 def test_torque_plot_marks_throw_two_over_its_limit(arm):
-    from app.panels.throw_plots import evaluate, torques_plot
+    from app.core.throw.study import evaluate
+    from app.panels.throw_plots import torques_plot
     view = evaluate(arm, thesis_throw("throw2"))
     plot = torques_plot(view)
     tau = view.samples.tau
@@ -322,18 +324,6 @@ def test_phase_plot_marks_the_equilibria_and_the_throw(view_one):
     assert np.all(np.isfinite(own) == inside)
     assert np.allclose(own[inside], view_one.throw.theta_dot(pp.theta[inside]))
     assert plot.y_range[1] > np.nanmax(own) and plot.y_range[0] == pytest.approx(-plot.y_range[1], abs=1e-12)
-
-
-def test_the_ball_leaves_the_hand_and_lands_on_the_marker(view_one):
-    from app.panels.throw_plots import ball_at
-    T = view_one.duration
-    _q, at_release = ball_at(view_one, T)
-    _q, just_after = ball_at(view_one, T + 1e-6)
-    assert np.allclose(at_release, view_one.release.position, atol=1e-9)
-    assert np.linalg.norm(just_after - at_release) < 1e-5
-    q_end, landed = ball_at(view_one, T + view_one.flight_time() + 1.0)
-    assert landed[1] == 0 and landed[0] == pytest.approx(view_one.release.distance_from_base, abs=1e-9)  # y set to 0
-    assert np.allclose(q_end, view_one.samples.q[:, -1])                    # the arm holds its release pose
 
 
 def test_camera_frames_the_whole_throw_beside_the_side_panel():

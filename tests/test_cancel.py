@@ -65,7 +65,8 @@ def test_the_control_simulation_stops():
 
 
 def test_the_throw_optimizer_stops_in_each_stage():
-    from app.core.vhc import ThrowingArm, ThrowOptimizer
+    from app.core.throw.arm import ThrowingArm
+    from app.core.throw.optimize import ThrowOptimizer
     arm = ThrowingArm()
     # the speed-limit bound and drawing the swings report (then scoring them and the local search:
     # both report by the clock, from every batch of evaluations)
@@ -76,7 +77,7 @@ def test_the_throw_optimizer_stops_in_each_stage():
 
 
 def test_the_full_dynamics_verification_stops():
-    from app.core.vhc import simulate_full
+    from app.core.throw.simulation import simulate_full
     from app.lab import throw
     spec = throw("throw1")
     progress = stops(lambda p: simulate_full(spec, "computed_torque", progress=p), calls=6)
@@ -84,8 +85,9 @@ def test_the_full_dynamics_verification_stops():
 
 
 def test_the_closed_loop_monte_carlo_stops():
-    from app.core.throw_control import CONTROLLERS, load_plant
-    from app.core.throw_montecarlo import monte_carlo
+    from app.core.throw.closed_loop import CONTROLLERS
+    from app.core.throw.plants import load_plant
+    from app.core.throw.montecarlo import monte_carlo
     from app.lab import throw
     spec = throw("throw1")
     stops(lambda p: monte_carlo(spec, load_plant("heavier"), CONTROLLERS, 40, seed=0, progress=p), calls=3)

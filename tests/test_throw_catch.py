@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 
 from app.cli import main
-from app.core.throw_catch import CUP, fit_flight, success_rate, throw_and_catch
-from app.core.throw_control import load_plant
-from app.core.vhc import ThrowingArm, load_throw_config
+from app.core.throw.catch import CUP, fit_flight, success_rate, throw_and_catch
+from app.core.throw.plants import load_plant
+from app.core.throw.arm import ThrowingArm
+from app.core.throw.config import load_throw_config
 
 
 @pytest.fixture(scope="module")
@@ -71,7 +72,7 @@ def test_fit_flight_recovers_a_ballistic_flight():
 def catch_plan(planned):
     """The catch of the plan's own ball (noise-free), planned like throw_and_catch does."""
     from app.core.catching import BallFlight, CatchingArm, plan_catch
-    from app.core.throw_catch import REST_POSE
+    from app.core.throw.catch import REST_POSE
     rel = planned.release
     world = BallFlight.from_release(rel.position, rel.velocity, planned.arm.g)
     base_x = float(world.position(world.landing_time())[0]) + 0.5

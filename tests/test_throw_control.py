@@ -9,10 +9,12 @@ import pytest
 from app.cli import main
 from app.core.errors import UserError
 from app.core.numeric import NumericModel
-from app.core.throw_control import (CONTROLLERS, Controller, Plant, _linearizing_torque, _outputs, _theta_jacobian,
-                                    load_plant, parse_plant, simulate_closed_loop, state_of)
-from app.core.throw_montecarlo import draw_plants, monte_carlo
-from app.core.vhc import ThrowingArm, load_throw_config
+from app.core.throw.closed_loop import (CONTROLLERS, Controller, _linearizing_torque, _outputs, _theta_jacobian,
+                                       simulate_closed_loop, state_of)
+from app.core.throw.plants import Plant, load_plant, parse_plant
+from app.core.throw.montecarlo import draw_plants, monte_carlo
+from app.core.throw.arm import ThrowingArm
+from app.core.throw.config import load_throw_config
 
 
 @pytest.fixture(scope="module")

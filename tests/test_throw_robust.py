@@ -6,10 +6,11 @@ import numpy as np
 import pytest
 
 from app.cli import main
-from app.core.throw_control import load_plant
-from app.core.throw_montecarlo import monte_carlo
-from app.core.throw_robust import HELD, PENALTY, RobustOptimizer
-from app.core.vhc import ThrowingArm, load_throw_config
+from app.core.throw.plants import load_plant
+from app.core.throw.montecarlo import monte_carlo
+from app.core.throw.robust import HELD, PENALTY, RobustOptimizer
+from app.core.throw.arm import ThrowingArm
+from app.core.throw.config import load_throw_config
 
 
 def test_robust_value_is_the_quantile_over_the_plants_and_the_search_repeats():

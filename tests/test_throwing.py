@@ -14,9 +14,12 @@ from app.core.ballistics import angle_table, best_angle
 from app.core.errors import UserError
 from app.core.numeric import NumericModel, cross_check
 from app.core.robot import load_robot
-from app.core.vhc import (TABLE_3_1, ThrowingArm, ThrowOptimizer, ThrowSpec, VHCError, hand_estimate,
-                          load_throw_config, parse_throw_config, phase_portrait, simulate_full,
-                          speed_limit_bound, thesis_comparison, thesis_throw)
+from app.core.throw.arm import ThrowingArm
+from app.core.throw.config import ThrowSpec, VHCError, load_throw_config, parse_throw_config, thesis_throw
+from app.core.throw.optimize import ThrowOptimizer, speed_limit_bound
+from app.core.throw.portrait import phase_portrait
+from app.core.throw.simulation import simulate_full
+from app.core.throw.thesis import TABLE_3_1, hand_estimate, thesis_comparison
 
 ROOT = Path(__file__).resolve().parents[1]
 

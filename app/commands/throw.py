@@ -146,7 +146,7 @@ def _print_throw(cfg_title, arm, throw, feas, thesis, sims) -> None:
 
 
 def _thesis(args, arm) -> int:
-    from app.core.vhc import thesis_comparison
+    from app.core.throw.thesis import thesis_comparison
 
     rows = thesis_comparison(arm)
     if args.json:
@@ -163,7 +163,9 @@ def _thesis(args, arm) -> int:
 
 def _optimize(args, arm) -> int:
     from app.core.errors import UserError
-    from app.core.vhc import DEFAULT_EVALUATIONS, ThrowOptimizer, hand_estimate, simulate_full, speed_limit_bound
+    from app.core.throw.optimize import DEFAULT_EVALUATIONS, ThrowOptimizer, speed_limit_bound
+    from app.core.throw.simulation import simulate_full
+    from app.core.throw.thesis import hand_estimate
 
     if args.budget is not None and not 0 < args.budget <= MAX_BUDGET_S:
         raise UserError(f"--budget must be positive and at most {MAX_BUDGET_S:g} seconds")
@@ -213,9 +215,10 @@ def _robust_value_json(v) -> dict:
 
 def _optimize_robust(args, arm, cfg) -> int:
     from app.core.errors import UserError
-    from app.core.throw_control import load_plant
-    from app.core.throw_robust import DEFAULT_PLANTS, DEFAULT_ROBUST_EVALUATIONS, RobustOptimizer
-    from app.core.vhc import ThrowingArm, load_throw_config
+    from app.core.throw.plants import load_plant
+    from app.core.throw.robust import DEFAULT_PLANTS, DEFAULT_ROBUST_EVALUATIONS, RobustOptimizer
+    from app.core.throw.arm import ThrowingArm
+    from app.core.throw.config import load_throw_config
 
     evaluations = DEFAULT_ROBUST_EVALUATIONS if args.evaluations is None else args.evaluations
     if not 1 <= evaluations <= 100000:
@@ -276,7 +279,7 @@ def closed_loop_json(run, planned_distance: float, j: int = 0) -> dict:
 
 def _catch(args, throw, plant, names) -> dict:
     from app.core.errors import UserError
-    from app.core.throw_catch import CAMERA_NOISE, CAMERA_RATE, throw_and_catch
+    from app.core.throw.catch import CAMERA_NOISE, CAMERA_RATE, throw_and_catch
 
     if len(names) != 1:
         raise UserError("--catch needs one controller (--closed-loop open, vhc or transverse)")
@@ -313,8 +316,9 @@ def _catch(args, throw, plant, names) -> dict:
 
 def _closed_loop(args, throw) -> dict:
     from app.core.errors import UserError
-    from app.core.throw_control import CONTROLLERS, load_plant, simulate_closed_loop
-    from app.core.throw_montecarlo import format_summary, monte_carlo
+    from app.core.throw.closed_loop import CONTROLLERS, simulate_closed_loop
+    from app.core.throw.plants import load_plant
+    from app.core.throw.montecarlo import format_summary, monte_carlo
 
     plant = load_plant(args.plant or "exact")
     names = list(CONTROLLERS) if args.closed_loop == "all" else [args.closed_loop]
@@ -353,7 +357,9 @@ def _closed_loop(args, throw) -> dict:
 
 def run(args) -> int:
     from app.core.errors import UserError
-    from app.core.vhc import ThrowingArm, load_throw_config, simulate_full
+    from app.core.throw.arm import ThrowingArm
+    from app.core.throw.config import load_throw_config
+    from app.core.throw.simulation import simulate_full
 
     cfg = load_throw_config(args.config) if args.config else None
     if args.degree < 2 or args.degree > 12:

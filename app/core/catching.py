@@ -530,9 +530,10 @@ def catch_scene(release_position, release_velocity, g: float = 9.81, base_x: Opt
 
 
 def catch_thesis_throw(name: str = "throw1", **kwargs) -> dict:
-    """The throwing arm's throw ``name`` (app/throws, solved by app.core.vhc) caught by the
+    """The throwing arm's throw ``name`` (app/throws, solved by app.core.throw) caught by the
     catching arm: ``catch_scene`` of its release."""
-    from .vhc import ThrowingArm, load_throw_config
+    from .throw.arm import ThrowingArm
+    from .throw.config import load_throw_config
     cfg = load_throw_config(name)
     arm = ThrowingArm(params=cfg.model) if getattr(cfg, "model", None) else ThrowingArm()
     throw = arm.solve(cfg.spec)

@@ -15,7 +15,7 @@ from typing import Callable, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from app.core.vhc import bernstein
+from app.core.throw.bezier import bernstein
 from app.viewer import SceneGroup
 
 from .throw_plots import JOINT_COLORS

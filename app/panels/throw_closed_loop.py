@@ -15,13 +15,14 @@ from typing import Dict, List, Optional
 import numpy as np
 
 from app.core.errors import UserError
-from app.core.throw_control import CONTROLLERS, list_plant_names, load_plant
-from app.core.throw_catch import CAMERA_NOISE, CAMERA_RATE, ThrowAndCatch, throw_and_catch
-from app.core.throw_montecarlo import Study, histogram, monte_carlo
-from app.core.vhc import ThrowingArm
+from app.core.throw.closed_loop import CONTROLLERS
+from app.core.throw.plants import list_plant_names, load_plant
+from app.core.throw.catch import CAMERA_NOISE, CAMERA_RATE, ThrowAndCatch, throw_and_catch
+from app.core.throw.montecarlo import Study, histogram
+from app.core.throw.study import closed_loop_study
 from app.viewer import in_worker
 
-from .throw_plots import BLOCK
+from .throw_plots import BLOCK, status_html
 
 #: controller colours (open, vhc, transverse)
 COLORS = {"open": "#c0392b", "vhc": "#e69f00", "transverse": "#2e5eaa"}
@@ -125,13 +126,6 @@ def summary_table(study: Study, controllers) -> str:
             f'release speed {study.planned_speed:.4f} m/s; {study.plants} plants, seed {study.seed}.</div>')
 
 
-
-def closed_loop_study(robot, values, spec, plant, count: int, seed: int, progress) -> Study:
-    """The closed-loop study's work: ``count`` plants drawn from ``plant`` throwing ``spec``
-    under each controller (``monte_carlo``)."""
-    throw = ThrowingArm(robot, params=values).solve(spec)
-    return monte_carlo(throw, plant, CONTROLLERS, count, seed=seed, progress=progress)
-
 class ClosedLoopTab:
     """Widgets of the *Closed loop* tab; ``studio`` is the ThrowStudio (its ``view`` is the throw on display)."""
 
@@ -208,14 +202,14 @@ class ClosedLoopTab:
         self.run_button.disabled = True
         self.progress.value = 0.0
         self.progress.visible = True
-        self.status.content = studio._status(f"simulating {count} plants x 3 controllers ...")
+        self.status.content = status_html(f"simulating {count} plants x 3 controllers ...")
 
         def work(progress):
             def report(fraction, message):
                 progress(fraction, message)
                 if studio._alive():
                     self.progress.value = 100 * fraction
-                    self.status.content = studio._status(message)
+                    self.status.content = status_html(message)
             try:
                 arm = view.throw.arm        # the study runs in a worker process (app/viewer/worker.py)
                 return in_worker(closed_loop_study, arm.robot, arm.values, view.spec, plant, count, seed,
@@ -228,7 +222,7 @@ class ClosedLoopTab:
 
         def done(study):
             self.show(study)
-            self.status.content = studio._status(f"{study.plants} plants, plant '{self.plant.value}': done", done=True)
+            self.status.content = status_html(f"{study.plants} plants, plant '{self.plant.value}': done", done=True)
 
         return studio.background(work, "Closed-loop throws", self.status, done, wait)
 
@@ -242,7 +236,7 @@ class ClosedLoopTab:
         controller, seed = self.catch_controller.value, int(self.seed.value)
         rate, noise = float(self.camera_rate.value), 1e-3 * float(self.camera_noise.value)
         self.catch_button.disabled = True
-        self.catch_result.content = studio._status("throwing, watching, catching ...")
+        self.catch_result.content = status_html("throwing, watching, catching ...")
 
         def work(progress):
             progress(0.1, f"throwing ({controller})")

@@ -1,13 +1,11 @@
-"""What the Throw studio shows about one throw, as plain data (no viser): the solved throw with
-its limit check, samples in time, phase portrait and ball flights (``evaluate``), and the uPlot
-charts (phase portrait with equilibria, joint angles, joint speeds and torques against their
-limits, a limit crossing filled in red) and HTML summaries built from it.
+"""The Throw studio's uPlot charts (phase portrait with equilibria, joint angles, joint speeds and
+torques against their limits, a limit crossing filled in red) and HTML summaries, built from a
+throw evaluated by the core (``app.core.throw.study.evaluate``).
 
->>> from app.core.vhc import ThrowingArm, thesis_throw
->>> view = evaluate(ThrowingArm(), thesis_throw("throw1"))
->>> round(view.flights["thesis"].landing_x, 3), view.feasibility.feasible
-(2.797, False)
->>> plot = speeds_plot(view)
+>>> from app.core.throw.arm import ThrowingArm
+>>> from app.core.throw.config import thesis_throw
+>>> from app.core.throw.study import evaluate
+>>> plot = speeds_plot(evaluate(ThrowingArm(), thesis_throw("throw1")))
 >>> len(plot.data) == len(plot.series), plot.bands[0]["series"]
 (True, (5, 4))
 """
@@ -20,9 +18,8 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from app.core.ballistics import Flight
-from app.core.vhc import (Feasibility, PhasePortrait, Throw, ThrowingArm, ThrowSpec, Trajectory,
-                          phase_portrait)
+from app.core.throw.reduced import Feasibility
+from app.core.throw.study import ThrowView
 from app.scene import PALETTE
 
 #: colours of q1, q2, q3 (the links' colours in the 3D view)
@@ -33,7 +30,6 @@ TRANSPARENT = "rgba(0,0,0,0)"
 #: the ball's flights: key -> (label, RGB colour)
 FLIGHTS = {"true": ("true velocity J(q) q̇", (200, 40, 40)),
            "thesis": ("thesis convention: θ̇ along ψ", (110, 110, 120))}
-PORTRAIT_RESTS = 7          # curves from rest drawn in the phase portrait (plus the throw's own)
 #: side margins of the studio's HTML blocks, aligned with viser's widgets and clear of the panel's scrollbar
 BLOCK = "padding:0 14px 0 9px"
 
@@ -45,81 +41,6 @@ def hex_color(rgb: Sequence[int]) -> str:
     '#4672c4'
     """
     return "#" + "".join(f"{int(c):02x}" for c in rgb)
-
-
-# ====================================================================== one throw, evaluated
-@dataclass
-class ThrowView:
-    """A solved throw and everything the studio draws of it."""
-    spec: ThrowSpec
-    throw: Throw
-    feasibility: Feasibility
-    samples: Trajectory                 # uniform in time from 0 to the release
-    portrait: PhasePortrait
-    throw_curve: np.ndarray             # theta_dot of the throw on portrait.theta (NaN outside [theta_b, theta_e])
-    flights: Dict[str, Flight]          # "true" (J q') and "thesis" (theta_dot along psi)
-
-    @property
-    def release(self):
-        return self.throw.release
-
-    @property
-    def duration(self) -> float:
-        return self.throw.duration
-
-    def flight_time(self, key: str = "true") -> float:
-        return self.flights[key].time
-
-
-def portrait_range(arm: ThrowingArm, spec: ThrowSpec, margin: float = 0.5) -> Tuple[float, float]:
-    """The theta interval of the phase portrait: the throw's [theta_b, theta_e] widened by ``margin``
-    times its length on both sides (equilibria often sit just outside), within the arm's reach.
-
-    >>> from app.core.vhc import thesis_throw
-    >>> [round(v, 4) for v in portrait_range(ThrowingArm(), thesis_throw("throw1"))]
-    [-0.6951, 0.7347]
-    """
-    reach = arm.l1 + arm.l2 + arm.l3
-    d = spec.theta_e - spec.theta_b
-    return max(spec.theta_b - margin * d, -reach), min(spec.theta_e + margin * d, reach)
-
-
-def evaluate(arm: ThrowingArm, spec: ThrowSpec, samples: int = 240, portrait_points: int = 401,
-             grid: int = 801) -> ThrowView:
-    """Solve a throw (VHCError when it cannot be carried out), check its limits on ``grid`` points,
-    sample it in time, draw its phase portrait and both flights of the ball."""
-    throw = arm.solve(spec)
-    feasibility = throw.check(grid=grid)
-    traj = throw.sample(samples)
-    lo, hi = portrait_range(arm, spec)
-    rests = [(float(t0), 0.0) for t0 in np.linspace(lo, hi, PORTRAIT_RESTS + 2)[1:-1]]
-    with np.errstate(all="ignore"):
-        portrait = phase_portrait(arm, spec, (lo, hi), rests + [(spec.theta_b, spec.theta_dot_b)], n=portrait_points)
-    inside = (portrait.theta >= spec.theta_b) & (portrait.theta <= spec.theta_e)
-    curve = np.full(portrait.theta.size, np.nan)
-    curve[inside] = throw.theta_dot(portrait.theta[inside])
-    rel = throw.release
-    flights = {"true": Flight(tuple(rel.position), tuple(rel.velocity), arm.g),
-               "thesis": Flight(tuple(rel.position), tuple(rel.velocity_thesis), arm.g)}
-    return ThrowView(spec, throw, feasibility, traj, portrait, curve, flights)
-
-
-def ball_at(view: ThrowView, t: float, key: str = "true") -> Tuple[np.ndarray, np.ndarray]:
-    """Joint angles and ball position (x, y) at time t of the animation: the swing until the
-    release, then the ball's flight (the arm holds its release pose) until it lands.
-
-    >>> from app.core.vhc import thesis_throw
-    >>> view = evaluate(ThrowingArm(), thesis_throw("throw1"))
-    >>> q, ball = ball_at(view, 10.0)      # landed: on the ground (y exactly 0) where the flight lands
-    >>> f"{ball[0]:.3f} m", f'{view.flights["true"].landing_x:.3f} m', bool(ball[1] == 0)
-    ('2.594 m', '2.594 m', True)
-    """
-    tr = view.samples
-    if t <= view.duration:
-        q = np.array([np.interp(t, tr.t, tr.q[i]) for i in range(3)])
-        ball = np.array([np.interp(t, tr.t, tr.ball[j]) for j in range(2)])
-        return q, ball
-    return tr.q[:, -1].copy(), view.flights[key].position_at(t - view.duration)
 
 
 # ====================================================================== uPlot charts
@@ -161,6 +82,16 @@ def _swatch(color: str, label: str, dashed: bool = False, fill: bool = False) ->
         mark = (f'<span style="display:inline-block;width:16px;border-top:2.5px {style} {color};'
                 f'vertical-align:middle"></span>')
     return f'<span style="margin-right:9px;white-space:nowrap">{mark} {html.escape(label)}</span>'
+
+
+def status_html(text: str, done: bool = False) -> str:
+    """A status line of the studio (green when a job is done).
+
+    >>> status_html("done & dusted", done=True).count("#1e7b34"), "&amp;" in status_html("a & b")
+    (1, True)
+    """
+    color = "#1e7b34" if done else "#333"
+    return f'<div class="r2-label" style="font-size:0.8em;color:{color};{BLOCK}">{html.escape(text)}</div>'
 
 
 def legend_html(title: str, items: Sequence[str]) -> str:

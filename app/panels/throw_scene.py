@@ -14,9 +14,10 @@ from typing import Optional, Tuple
 
 import numpy as np
 
+from app.core.throw.study import ThrowView, ball_at
 from app.viewer import SceneGroup
 
-from .throw_plots import FLIGHTS, ThrowView, ball_at
+from .throw_plots import FLIGHTS
 
 SIDE_PANEL_PX = 400            # the side panel floats over the right of the canvas
 FOV = math.radians(28.0)       # as the viewer's planar framing: little perspective

@@ -164,7 +164,7 @@ THROW_SHOTS = {
 
 def throw_picture(out: Path, name: str, fraction: float, what: str, lab, browser) -> Path:
     """The Throw studio showing the shipped throw ``name`` at ``fraction`` of its time."""
-    from app.core.vhc import load_throw_config
+    from app.core.throw.config import load_throw_config
     before = set(lab.sessions)
     lab.initial_robot = "throwing_arm"
     # the phase portrait alone at twice the pixel density, so that its lines are crisp

@@ -1,5 +1,5 @@
 """Throw and catch: the throwing arm throws (a closed-loop throw in full dynamics on a plant,
-app/core/throw_control.py), a camera sees the ball in flight (noisy positions at a given rate), a
+app/core/throw/closed_loop.py), a camera sees the ball in flight (noisy positions at a given rate), a
 filter estimates the flight, and the catching arm (app/core/catching.py) plans its catch from that
 estimate, never from the true release state, and moves there.
 
@@ -32,10 +32,11 @@ from typing import Optional
 
 import numpy as np
 
-from .catching import BallFlight, CatchError, CatchingArm, CatchRun, plan_catch, simulate_catch
-from .errors import UserError
-from .throw_control import Plant, simulate_closed_loop
-from .vhc import Throw
+from ..catching import BallFlight, CatchError, CatchingArm, CatchRun, plan_catch, simulate_catch
+from ..errors import UserError
+from .closed_loop import simulate_closed_loop
+from .plants import Plant
+from .reduced import Throw
 
 #: default camera: 100 frames per second, 5 mm noise per axis, 0.15 s of observation; cup radius 5 cm
 CAMERA_RATE = 100.0

@@ -1,8 +1,8 @@
 """The robust objective of the throw optimizer: a throw judged by its closed-loop throws on N plants.
 
-A candidate throw (the same Bezier VHC vector as ``vhc.ThrowOptimizer``) is thrown in full dynamics
-under a controller (``throw_control``) on N plants drawn, seeded, from a plant file's uncertainty
-ranges (``throw_montecarlo.monte_carlo``; the same N plants and sensor noise for every candidate:
+A candidate throw (the same Bezier VHC vector as ``optimize.ThrowOptimizer``) is thrown in full dynamics
+under a controller (``closed_loop``) on N plants drawn, seeded, from a plant file's uncertainty
+ranges (``montecarlo.monte_carlo``; the same N plants and sensor noise for every candidate:
 common random numbers). Its value:
 
 - ``distance_q05``: the 5 % quantile of the landing distance from the base over the N plants (a ball
@@ -28,10 +28,14 @@ from typing import List, Optional, Tuple
 
 import numpy as np
 
-from .errors import UserError
-from .throw_control import CONTROLLERS, Plant
-from .throw_montecarlo import monte_carlo
-from .vhc import Progress, Throw, ThrowingArm, ThrowOptimizer, ThrowSpec, VHCError
+from ..errors import UserError
+from .arm import ThrowingArm
+from .closed_loop import CONTROLLERS
+from .config import Progress, ThrowSpec, VHCError
+from .montecarlo import monte_carlo
+from .optimize import ThrowOptimizer
+from .plants import Plant
+from .reduced import Throw
 
 #: the quantile of the distance that is maximized, and the share of plants that must hold every limit
 QUANTILE = 0.05

@@ -4,8 +4,9 @@ plant file's uncertainty ranges, simulated as one vectorized batch per controlle
 Every controller meets the same plants and the same sensor noise (common random numbers), so their
 distributions can be compared directly.
 
->>> from app.core.vhc import ThrowingArm, load_throw_config
->>> from app.core.throw_control import load_plant
+>>> from app.core.throw.arm import ThrowingArm
+>>> from app.core.throw.config import load_throw_config
+>>> from app.core.throw.plants import load_plant
 >>> arm = ThrowingArm()
 >>> throw = arm.solve(load_throw_config("optimized_thesis").spec)
 >>> study = monte_carlo(throw, load_plant("heavier"), ["open"], plants=4, seed=1)
@@ -19,10 +20,11 @@ from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
-from .errors import UserError
-from .throw_control import CONTROLLERS, ClosedLoopRun, Controller, Gains, Plant, PlantBatch, plant_batch, \
-    simulate_closed_loop
-from .vhc import Progress, Throw
+from ..errors import UserError
+from .closed_loop import CONTROLLERS, ClosedLoopRun, Controller, Gains, simulate_closed_loop
+from .config import Progress
+from .plants import Plant, PlantBatch, plant_batch
+from .reduced import Throw
 
 #: quantiles of the summary (fractions)
 QUANTILES = (0.05, 0.25, 0.5, 0.75, 0.95)
