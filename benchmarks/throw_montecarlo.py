@@ -1,4 +1,4 @@
-"""Monte-Carlo landing spread (app/core/throw_montecarlo.py): plants simulated per second, the
+"""Monte-Carlo landing spread (app/core/throw/montecarlo.py): plants simulated per second, the
 vectorized batch against a plain loop of one-plant full-dynamics simulations (the same RK4 integrator,
 the same plant and controller), in the same process, CPU time beside wall time.
 

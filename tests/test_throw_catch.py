@@ -1,4 +1,4 @@
-"""Throw and catch (app/core/throw_catch.py): the catching arm catches the throwing arm's ball, both
+"""Throw and catch (app/core/throw/catch.py): the catching arm catches the throwing arm's ball, both
 simulated, the catch planned from a noisy camera's view of the flight, not from the release state."""
 import json
 

@@ -1,4 +1,4 @@
-"""Closed-loop throws in full dynamics (app/core/throw_control.py, app/core/throw_montecarlo.py):
+"""Closed-loop throws in full dynamics (app/core/throw/closed_loop.py, app/core/throw/montecarlo.py):
 every controller reproduces the plan on the exact plant, the transverse linearization matches finite
 differences of the full model, and the Monte-Carlo study is seeded and vectorized."""
 import json

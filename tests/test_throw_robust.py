@@ -1,4 +1,4 @@
-"""The throw optimizer's robust objective (app/core/throw_robust.py): the 5 % quantile of the landing
+"""The throw optimizer's robust objective (app/core/throw/robust.py): the 5 % quantile of the landing
 distance over N seeded plants, limits held in >= 95 % of them; budget in robust evaluations."""
 import json
 

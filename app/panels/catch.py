@@ -2,7 +2,7 @@
 arm intercepts it and the trapezoidal joint motions that get it there (app/core/catching.py).
 
 The ball comes either from the coursework's launcher (speed, elevation, distance) or from one of the
-throwing arm's throws (app/throws, solved by app/core/vhc.py), placed so that it lands 0.5 m beyond
+throwing arm's throws (app/throws, solved by app/core/throw/), placed so that it lands 0.5 m beyond
 the catching arm's base.
 """
 from __future__ import annotations

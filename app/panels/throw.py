@@ -23,8 +23,8 @@ import numpy as np
 import yaml
 
 from app.core.errors import UserError
-from app.core.throw.arm import ThrowingArm
-from app.core.throw.config import REQUIRED_PARAMETERS, ThrowConfig, ThrowSpec, load_throw_config, parse_throw_config
+from app.core.throw.arm import ThrowingArm, has_throwing_structure
+from app.core.throw.config import ThrowConfig, ThrowSpec, load_throw_config, parse_throw_config
 from app.core.throw.study import ThrowDraft, ThrowStudy, ThrowView, wrist_curve
 from app.viewer import Coalescer
 
@@ -51,8 +51,7 @@ CHART_RECT = (0.0, -1.6, 2.6, 1.05)
 
 def available(robot) -> bool:
     """The studio needs the throwing arm's structure (what ``ThrowingArm`` checks)."""
-    return (robot.n == 3 and tuple(robot.actuated) == (True, True, False) and "ball" in robot.points
-            and all(p in robot.parameters for p in REQUIRED_PARAMETERS))
+    return has_throwing_structure(robot)
 
 
 def build(session) -> None:

@@ -1,6 +1,6 @@
 """The throw studio's *Closed loop* tab: the throw on display, run in full dynamics under the three
 controllers on a plant drawn from user-set uncertainty ranges (a seeded Monte-Carlo study,
-app/core/throw_montecarlo.py), shown as a histogram of the landing distance and a scatter of release
+app/core/throw/montecarlo.py), shown as a histogram of the landing distance and a scatter of release
 speed against landing distance beside the planned throw, with a summary table per controller.
 
 The study runs off the event thread with a progress bar; the panel only builds widgets and HTML

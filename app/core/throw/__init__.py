@@ -13,8 +13,8 @@ throws (the optimizer's finite differences are one call).
 
 Modules, each importing only those above it:
 
-- ``config``: ``ThrowSpec``, ``SpecBatch``, ``ThrowConfig`` and the throw files, ``VHCError``
 - ``bezier``: Bernstein bases, degree elevation, piecewise Chebyshev quadrature
+- ``config``: ``ThrowSpec``, ``SpecBatch``, ``ThrowConfig`` and the throw files, ``VHCError``
 - ``reduced``: the reduced dynamics (3.24) solved, ``Throw``, ``Release``, ``Trajectory``, ``Feasibility``
 - ``arm``: ``ThrowingArm``, the model at given parameters (constraint, alpha, beta, gamma)
 - ``portrait``: phase portraits and equilibria; ``simulation``: the full 3-DOF arm (``simulate_full``)

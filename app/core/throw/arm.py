@@ -20,6 +20,17 @@ from . import reduced
 from .reduced import Release, ReducedSolution, Throw
 
 
+def has_throwing_structure(robot: RobotModel) -> bool:
+    """Whether a robot has the throwing arm's structure: three coordinates, the third passive, a
+    point 'ball' and the parameters the engine reads by name (``REQUIRED_PARAMETERS``).
+
+    >>> has_throwing_structure(load_robot("throwing_arm")), has_throwing_structure(load_robot("planar_2r"))
+    (True, False)
+    """
+    return (robot.n == 3 and tuple(robot.actuated) == (True, True, False) and "ball" in robot.points
+            and all(p in robot.parameters for p in REQUIRED_PARAMETERS))
+
+
 @dataclass
 class ConstraintState:
     """The constrained configuration along theta (arrays of shape (B, N); q-like ones (3, B, N))."""
@@ -46,8 +57,8 @@ class ThrowingArm:
 
     def __init__(self, robot: RobotModel | str | None = None, params: Optional[Mapping[str, float]] = None):
         robot = load_robot(robot or ROBOT_NAME) if not isinstance(robot, RobotModel) else robot
-        missing = [p for p in REQUIRED_PARAMETERS if p not in robot.parameters]
-        if robot.n != 3 or robot.actuated != (True, True, False) or missing or "ball" not in robot.points:
+        if not has_throwing_structure(robot):
+            missing = [p for p in REQUIRED_PARAMETERS if p not in robot.parameters]
             raise UserError(f"robot '{robot.name}' does not have the throwing arm's structure (three "
                             f"coordinates, the third passive, a point 'ball', parameters {REQUIRED_PARAMETERS}; "
                             f"missing: {missing})")
