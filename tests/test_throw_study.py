@@ -92,3 +92,23 @@ def test_the_wrist_curve_has_gaps_where_the_ball_cannot_be_reached(arm):
     st = arm.constraint(spec, spec.theta_b + s[-1] * (spec.theta_e - spec.theta_b), dynamics=False)
     assert q3[-1] == pytest.approx(float(st.q[2, 0, 0]), abs=1e-12)
     assert math.isfinite(q3[-1])
+
+
+def test_each_module_of_the_throw_package_imports_only_those_before_it():
+    """The order of docs/throwing.md's table of app/core/throw/ (annotation-only imports aside)."""
+    import ast
+    from pathlib import Path
+
+    order = ["bezier", "config", "reduced", "arm", "portrait", "simulation", "optimize", "thesis", "plants",
+             "closed_loop", "montecarlo", "robust", "catch", "study"]
+    root = Path(__file__).resolve().parents[1] / "app" / "core" / "throw"
+    assert sorted(p.stem for p in root.glob("*.py") if p.stem != "__init__") == sorted(order)
+    for name in order:
+        tree = ast.parse((root / f"{name}.py").read_text(encoding="utf-8"))
+        typing_only = {id(n) for node in ast.walk(tree) if isinstance(node, ast.If)
+                       and getattr(node.test, "id", "") == "TYPE_CHECKING" for n in ast.walk(node)}
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and node.level == 1 and id(node) not in typing_only:
+                used = [node.module] if node.module else [a.name for a in node.names]
+                for mod in used:
+                    assert order.index(mod) < order.index(name), f"{name}.py imports {mod} (line {node.lineno})"
