@@ -179,7 +179,7 @@ class ThrowStudio:
         self.state.update(draft=self.draft.copy(), config=self.config, edited=self.edited)
 
     # ================================================================== edits
-    def edited(self) -> None:
+    def draft_changed(self) -> None:
         """The user changed the throw: solve it again (coalesced, off the event thread)."""
         self.edited = True
         self._remember()

@@ -2,7 +2,7 @@
 control point at a time, the control points as text (applied when the typing pauses), raising the
 degree, the chart's control points dragged in the 3D view, and the throw as a file. The numbers
 live in the studio's ``draft`` (app.core.throw.study.ThrowDraft); every change asks the studio to
-solve the throw again.
+solve the throw again (``draft_changed``).
 """
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ TYPING_PAUSE = 0.8        # seconds of quiet before typed control points are app
 
 
 class EditTab:
-    """Widgets of the *Edit* tab; ``studio`` is the ThrowStudio (``draft``, ``lock``, ``edited()``)."""
+    """Widgets of the *Edit* tab; ``studio`` is the ThrowStudio (``draft``, ``lock``, ``draft_changed()``)."""
 
     def __init__(self, studio):
         self.studio = studio
@@ -126,14 +126,14 @@ class EditTab:
     def _stiffness_committed(self, value: float) -> None:
         with self.studio.lock:
             self.studio.draft.k = value
-        self.studio.edited()
+        self.studio.draft_changed()
 
     def _number_edited(self, key: str, event) -> None:
         if event.client is None:
             return
         with self.studio.lock:
             setattr(self.studio.draft, key, float(event.target.value))
-        self.studio.edited()
+        self.studio.draft_changed()
 
     def _point_picked(self, event) -> None:
         if event.client is None:
@@ -152,7 +152,7 @@ class EditTab:
             points[i] = float(event.target.value)
         self._sync_texts()
         self.studio.chart.move_point(kind, i, len(points), float(event.target.value))
-        self.studio.edited()
+        self.studio.draft_changed()
 
     def _points_typed(self, kind: str, event) -> None:
         """A control-point list is being typed (the browser sends every keystroke): it is applied once
@@ -191,13 +191,13 @@ class EditTab:
             self.point.options = options
             self.point.value = self._selected_label()
         self._sync_point_slider()
-        studio.edited()
+        studio.draft_changed()
 
     def _raise_degree(self) -> None:
         with self.studio.lock:
             self.studio.draft = self.studio.draft.raised()
         self.sync()
-        self.studio.edited()
+        self.studio.draft_changed()
 
     def chart_dragged(self, kind: str, index: int, value: float, phase: str) -> None:
         """A control point of the 3D view's chart was dragged to ``value`` (kept within its joint's range)."""
@@ -215,7 +215,7 @@ class EditTab:
             self.point_value.value = value
         self.studio.chart.move_point(kind, index, len(points), value)
         self._sync_texts()
-        self.studio.edited()
+        self.studio.draft_changed()
 
     def chart_selected(self, kind: str, index: int) -> None:
         self.selected = (kind, index)
