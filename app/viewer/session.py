@@ -556,8 +556,7 @@ class Session:
         pool = getattr(self.lab, "checks", None)
         if pool is not None:
             try:
-                return pool.call(cross_check, (robot, values), {"states": 30, "dynamics": dynamics},
-                                 lambda: self.closed)
+                return pool.call(cross_check, (robot, values), {"states": 30, "dynamics": dynamics})
             except NotPortable:
                 pass
         return cross_check(robot, values, states=30, dynamics=dynamics)

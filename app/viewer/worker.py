@@ -50,6 +50,13 @@ class NotPortable(TypeError):
     """A job's function, arguments or result cannot cross to or from a worker process (pickle)."""
 
 
+class _RemoteTraceback(Exception):
+    """The worker's traceback, chained to an error it sent back (shown by ``traceback``)."""
+
+    def __str__(self):
+        return self.args[0]
+
+
 class _Job(threading.local):
     pool: Optional["WorkerPool"] = None
     cancelled: Callable[[], bool] = staticmethod(lambda: False)
@@ -350,7 +357,9 @@ class WorkerPool:
                     raise NotPortable(rest[0])
                 else:
                     healthy = True
-                    raise rest[0]
+                    error = rest[0]
+                    remote = getattr(error, "remote_traceback", None)
+                    raise error from (_RemoteTraceback("\n" + remote) if remote else None)
         finally:
             self._release(worker, healthy)
             self._free.release()
