@@ -30,7 +30,6 @@ in) cost the page's server about 0.7 s of CPU at every start (issue 16).
 from __future__ import annotations
 
 import math
-import threading
 from dataclasses import dataclass
 from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 
@@ -38,7 +37,7 @@ import numpy as np
 import sympy as sp
 
 from app.core.expressions import parse_expression
-from app.core.kinematics import Kinematics
+from app.core.numeric import compiled_model, numeric_function
 from app.core.robot import RobotModel
 
 #: link colours, in body order (a body's ``color`` in the robot file wins)
@@ -48,10 +47,6 @@ JOINT_COLOR = (55, 62, 74)
 SLEEVE_COLOR = (85, 92, 104)
 BASE_COLOR = (120, 126, 136)
 HIGHLIGHT_COLOR = (255, 196, 0)
-
-_FRAMES_CACHE: Dict[str, object] = {}
-_FRAMES_LOCK = threading.Lock()
-
 
 # ------------------------------------------------------------------------------ meshes
 class Mesh:
@@ -227,27 +222,6 @@ def parse_color(value) -> Optional[Tuple[int, int, int]]:
     return None
 
 
-def compiled_frames(robot: RobotModel):
-    """``fn(q, p) -> list of 4x4`` (joint frame, body frame for each body) from the symbolic
-    kinematics, compiled once per robot file (``p`` in the order of ``robot.parameters``)."""
-    key = robot.content_hash or repr(robot)
-    with _FRAMES_LOCK:
-        fn = _FRAMES_CACHE.get(key)
-    if fn is None:
-        kin = Kinematics(robot)
-        mats = []
-        for body in robot.bodies:
-            for frame in (kin.frames[body.name]["joint"], kin.frames[body.name]["body"]):
-                T = sp.eye(4)
-                T[:3, :3] = frame.R
-                T[:3, 3] = frame.p
-                mats.append(T)
-        fn = sp.lambdify([robot.q, robot.parameter_symbols], mats, modules="numpy", cse=True)
-        with _FRAMES_LOCK:
-            _FRAMES_CACHE[key] = fn
-    return fn
-
-
 def _numeric(expr, subs) -> float:
     if not isinstance(expr, sp.Basic):       # a number or an expression written in the file
         expr = parse_expression(expr, [s.name for s in subs])
@@ -387,7 +361,7 @@ class RobotDrawing:
         self.values = robot.parameter_values(params)
         self.p = np.array([self.values[n] for n in robot.parameters], dtype=float)
         self._subs = {sp.Symbol(k, real=True): v for k, v in self.values.items()}
-        self._frames_fn = compiled_frames(robot)
+        self._frames_fn = compiled_model(robot).fframes       # compiled once per robot file
         draw = robot.draw or {}
         self.segments = self._link_segments()
         lengths = [float(np.linalg.norm(b - a)) for segs in self.segments.values() for a, b in segs]
@@ -502,7 +476,7 @@ class RobotDrawing:
         """Range of a prismatic joint's variable over the coordinates' slider ranges."""
         value = body.joint.value
         syms = sorted(value.free_symbols & set(self.robot.q), key=lambda s: s.name)
-        fn = sp.lambdify(syms, value.xreplace(self._subs), "numpy")
+        fn = numeric_function(syms, value.xreplace(self._subs), "numpy")
         corners = np.array(np.meshgrid(*[self.ranges[s.name] for s in syms])).reshape(len(syms), -1)
         vals = np.atleast_1d(np.asarray(fn(*corners), dtype=float))
         return float(vals.min()), float(vals.max())

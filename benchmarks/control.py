@@ -17,9 +17,9 @@ import time
 
 import numpy as np
 
-from app.core.numeric import PinocchioTwin
+from app.core.numeric import ModelTerms, PinocchioTwin
 from app.core.robot import load_robot
-from app.core.sim import ModelTerms, simulate
+from app.core.sim import simulate
 from app.core.trajectories import parse_reference
 
 ROBOTS = ["planar_2r", "planar_3r", "throwing_arm"]

@@ -164,12 +164,8 @@ def _forget_memory(lab) -> None:
     (what a restarted server has); the disk cache stays."""
     import app.core.dynamics as dynamics
     import app.core.numeric as numeric
-    import app.scene as scene
     dynamics.forget_derivations()
-    for module, name in ((numeric, "_LAMBDA_CACHE"), (scene, "_FRAMES_CACHE")):
-        cache = getattr(module, name, None)
-        if isinstance(cache, dict):
-            cache.clear()
+    numeric.forget_compiled()           # every compiled function of every robot (frames too)
     try:
         from app.viewer import html_cache
         html_cache._MEMORY.clear()

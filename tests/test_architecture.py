@@ -245,3 +245,13 @@ def test_no_private_viser_attributes():
     ("from .tasks.energy import x", "app.core.exercise", False, "app.core.tasks.energy")])
 def test_the_reader_resolves_imports(source, module, package, target):
     assert list(imports_in(source, module, package)) == [(1, target)]
+
+
+def test_only_the_numeric_package_compiles_expressions():
+    """``sympy.lambdify`` is called in one place, app/core/numeric/compile.py: everything else uses
+    ``app.core.numeric.numeric_function`` or a robot's ``CompiledModel``."""
+    numeric = APP / "core" / "numeric"
+    found = [f"{path.relative_to(ROOT)}:{i}: {line.strip()}"
+             for path, _ in modules() if numeric not in path.parents
+             for i, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1) if "lambdify" in line]
+    assert not found, "lambdify outside app/core/numeric/:\n" + "\n".join(found)

@@ -48,6 +48,7 @@ import sympy as sp
 
 from .errors import UserError
 from .expressions import ExpressionError, parse_expression, symbol
+from .numeric import numeric_function
 from .steps import Step, shorthand_is_clear, to_latex
 from .trig import TrigPoly
 
@@ -379,8 +380,8 @@ def equivalent(a, b, points: int = 8) -> bool:
     if not (d.has(sp.Pow) and any(p.exp.is_negative or not p.exp.is_integer for p in d.atoms(sp.Pow))) \
             and not d.has(sp.Abs, sp.sqrt, sp.atan2, sp.asin, sp.acos, sp.atan, sp.exp, sp.log):
         return False     # a trigonometric polynomial whose canonical form is not zero
-    f = sp.lambdify(free, d, "math")
-    scale = sp.lambdify(free, sp.Abs(_real(a)) + sp.Abs(_real(b)) + 1, "math")
+    f = numeric_function(free, d, "math")
+    scale = numeric_function(free, sp.Abs(_real(a)) + sp.Abs(_real(b)) + 1, "math")
     rng = random.Random(11)
     tried = 0
     for _ in range(points * 3):

@@ -24,6 +24,8 @@ from typing import Dict, List, Sequence, Tuple
 import numpy as np
 import sympy as sp
 
+from .numeric import numeric_function
+
 
 def regressor(p: sp.Matrix, parameters: Sequence[sp.Symbol], offsets: Sequence[sp.Symbol]) -> sp.Matrix:
     """Phi = [dp/dparameters, dp/doffsets] (an offset on q_i enters like q_i itself)."""
@@ -56,8 +58,8 @@ def least_squares_calibration(p: sp.Matrix, unknowns, coordinates, nominal: Dict
     from ``nominal`` (which also holds every other number p needs; missing unknowns start at 0)."""
     unknowns, coordinates = list(unknowns), list(coordinates)
     fixed = {k: v for k, v in nominal.items() if k not in unknowns}
-    f = sp.lambdify([coordinates, unknowns], p.subs(fixed), "numpy")
-    Phi_f = sp.lambdify([coordinates, unknowns], p.jacobian(unknowns).subs(fixed), "numpy")
+    f = numeric_function([coordinates, unknowns], p.subs(fixed), "numpy")
+    Phi_f = numeric_function([coordinates, unknowns], p.jacobian(unknowns).subs(fixed), "numpy")
 
     def stacked(x):
         Phi = np.vstack([np.atleast_2d(np.array(Phi_f(list(q), list(x)), dtype=float)) for q, _ in experiments])

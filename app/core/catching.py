@@ -35,6 +35,7 @@ import numpy as np
 import sympy as sp
 
 from .errors import UserError
+from .numeric import numeric_function
 from .planning import TimingLaw, synchronized_trapezoids
 from .robot import RobotModel, load_robot
 from .trajectories import Reference
@@ -65,7 +66,7 @@ class CatchingArm:
         from .jacobians import task_function
         r = task_function(self.robot, "ee", ("x", "y"))
         subs = {sp.Symbol(k, real=True): v for k, v in values.items()}
-        self._fk = sp.lambdify([self.robot.q], r.xreplace(subs), "numpy")
+        self._fk = numeric_function([self.robot.q], r.xreplace(subs), "numpy")
 
     # ---------------------------------------------------------------- kinematics
     def forward(self, q) -> np.ndarray:

@@ -19,6 +19,7 @@ import numpy as np
 import sympy as sp
 
 from .expressions import parse_expression, symbol
+from .numeric import numeric_function
 from .trig import TrigPoly
 
 
@@ -56,9 +57,9 @@ def _scalar_same(a, b, tol=1e-9) -> bool:
         pass
     ra, rb = _realify(a), _realify(b)
     syms = sorted(d.free_symbols | ra.free_symbols | rb.free_symbols, key=lambda s: s.name)
-    f = sp.lambdify(syms, d, "math")
+    f = numeric_function(syms, d, "math")
     rng = random.Random(7)
-    scale_f = sp.lambdify(syms, sp.Abs(ra) + sp.Abs(rb) + 1, "math")
+    scale_f = numeric_function(syms, sp.Abs(ra) + sp.Abs(rb) + 1, "math")
     for _ in range(20):
         vals = [rng.uniform(0.3, 1.7) for _ in syms]
         try:

@@ -348,15 +348,13 @@ class Adaptive(Controller):
 
     def prepare(self, s):
         from .dynamics import derive
+        from .numeric import compiled_model
         robot = s.robot
         par = derive(robot).parametrization
-        dqr, ddqr = robot.reference_symbols()
-        p = robot.parameter_symbols
         self.count = par.count
         self.coefficients_latex = [sp.latex(a) for a in par.a]
         self.coefficient_names = [str(a) for a in par.a]
-        self._Y = sp.lambdify([robot.q, robot.dq, dqr, ddqr, p], par.Y_ref, "numpy", cse=True)
-        self._y0 = sp.lambdify([robot.q, robot.dq, dqr, ddqr, p], par.known_terms_ref, "numpy", cse=True)
+        self._Y, self._y0 = compiled_model(robot).regressor_ref()
         self._p = np.array([s.model.values[name] for name in robot.parameters], dtype=float)
         self.internal_names = [f"a_hat{i + 1}" for i in range(self.count)]
 

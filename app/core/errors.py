@@ -23,3 +23,8 @@ def excerpt(text, limit: int = 60) -> str:
     if not isinstance(text, str):
         return reprlib.repr(text)[:limit]
     return repr(text if len(text) <= limit else text[:limit - 3] + "...")
+
+
+class SimulationError(UserError):
+    """A simulation cannot be set up as asked (bad initial state, missing surface, unknown
+    backend, ...)."""

@@ -35,6 +35,7 @@ import sympy as sp
 
 from .errors import UserError
 from .kinematics import Kinematics
+from .numeric import compiled_model
 from .robot import RobotModel
 from .trig import TrigPoly
 
@@ -49,14 +50,8 @@ class JacobianError(UserError):
 
 
 def _kinematics(robot: RobotModel) -> Kinematics:
-    cache = _KIN_CACHE.get(id(robot))
-    if cache is None or cache[0] is not robot:
-        cache = (robot, Kinematics(robot))
-        _KIN_CACHE[id(robot)] = cache
-    return cache[1]
-
-
-_KIN_CACHE: Dict[int, Tuple[RobotModel, Kinematics]] = {}
+    """The robot's symbolic kinematics, kept by its compiled model (one per robot content)."""
+    return compiled_model(robot).kinematics
 
 
 def point_location(robot: RobotModel, point) -> Tuple[Optional[str], sp.Matrix]:

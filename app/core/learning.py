@@ -23,6 +23,7 @@ import numpy as np
 import sympy as sp
 
 from .errors import UserError
+from .numeric import numeric_function
 
 
 class LearningError(UserError):
@@ -46,7 +47,7 @@ class LearningRun:
 def gradient_bound(dg: sp.Matrix, robot, values, samples: int = 2000, seed: int = 0) -> float:
     """Largest spectral norm of dg/dq over random configurations and the grid corners (numeric)."""
     subs = {p.symbol: float(v) for p, v in zip(robot.parameters.values(), robot.parameter_values(values).values())}
-    f = sp.lambdify([list(robot.q)], dg.xreplace(subs), "numpy")
+    f = numeric_function([list(robot.q)], dg.xreplace(subs), "numpy")
     rng = np.random.default_rng(seed)
     best = 0.0
     for _ in range(samples):

@@ -29,6 +29,7 @@ import numpy as np
 import sympy as sp
 
 from .errors import UserError
+from .numeric import numeric_function
 from .robot import RobotModel
 
 
@@ -93,9 +94,9 @@ class NewtonEuler:
         E = theta.jacobian(q)
         dq = sp.Matrix(robot.dq)
         Edot_dq = (E * dq).jacobian(q) * dq
-        self._theta = sp.lambdify([list(q)], list(theta), "numpy")
-        self._E = sp.lambdify([list(q)], E, "numpy")
-        self._Edq = sp.lambdify([list(q), list(dq)], list(Edot_dq), "numpy")
+        self._theta = numeric_function([list(q)], list(theta), "numpy")
+        self._E = numeric_function([list(q)], E, "numpy")
+        self._Edq = numeric_function([list(q), list(dq)], list(Edot_dq), "numpy")
         self.index = {b["name"]: i for i, b in enumerate(self.bodies)}
 
     # ---------------------------------------------------------------- kinematics

@@ -64,7 +64,8 @@ def _value(expr: sp.Expr, env, memo):
         out = _NUMPY[type(expr)](*[_value(a, env, memo) for a in expr.args])
     else:
         syms = sorted(expr.free_symbols, key=lambda s: s.name)
-        out = sp.lambdify(syms, expr, "numpy")(*[env[s] for s in syms])
+        from .numeric import numeric_function       # here: the numeric package imports this module
+        out = numeric_function(syms, expr, "numpy")(*[env[s] for s in syms])
     memo[expr] = out
     return out
 

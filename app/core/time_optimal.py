@@ -38,6 +38,7 @@ from typing import Callable, List, Optional, Sequence, Tuple
 import numpy as np
 
 from .latex import num
+from .numeric import numeric_function
 from .planning import PlanningError
 from .steps import Step
 
@@ -71,7 +72,7 @@ class JointPath:
         extra = set().union(*(e.free_symbols for e in exprs)) - {s_symbol}
         if extra:
             raise PlanningError(f"the path may only depend on s; unknown names {sorted(str(x) for x in extra)}")
-        fns = [sp.lambdify([s_symbol], sp.Matrix([sp.diff(e, s_symbol, k) for e in exprs]), "numpy") for k in range(3)]
+        fns = [numeric_function([s_symbol], sp.Matrix([sp.diff(e, s_symbol, k) for e in exprs]), "numpy") for k in range(3)]
 
         def column(f):
             return lambda s: np.array([np.asarray(f(float(x)), float).reshape(-1) for x in np.atleast_1d(s)])

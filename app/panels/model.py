@@ -8,6 +8,7 @@ import numpy as np
 import sympy as sp
 
 from app.core.answer_check import check_model_entry, model_entries
+from app.core.numeric import compiled_model
 from app.core.steps import shorthand_is_clear
 from app.core.tex import model_tex
 from app.viewer import AnswerBox, html_cache, mathml
@@ -100,8 +101,7 @@ def build(session) -> None:
 
     par = dyn.parametrization
     a_vec = sp.Matrix(par.a)
-    symbols = [sp.Symbol(k, real=True) for k in robot.parameters]
-    a_fn = sp.lambdify([symbols], a_vec, "numpy")
+    a_fn = compiled_model(robot, dyn).coefficients()
     known = ", ".join(par.known) or "none"
     section(f"Linear parametrization Y a ({par.count} coefficients)",
             lambda: blocks(r"Y(q,\dot q,\ddot q)", par.Y, "y") + blocks("a", a_vec, "a"),

@@ -84,6 +84,7 @@ from ..exercise import ExerciseError
 from ..expressions import ExpressionError, parse_number, symbol
 from ..mathtext import symbols_text
 from ..kinematics import Kinematics
+from ..numeric import numeric_function
 from ..robot import RESERVED_NAMES
 from ..steps import to_latex
 from ..trig import TrigPoly
@@ -952,7 +953,7 @@ def gravity_gradient_bound_task(ctx, spec):
             highs.append(lim.position[1])
         else:
             raise a.fail("", f"dg/dq grows without bound with {s.name}: give it position limits")
-    fB = sp.lambdify([qs], Bn, "numpy")
+    fB = numeric_function([qs], Bn, "numpy")
     peak, q_star = _max_spectral_norm(lambda x: np.array(fB(list(x)), dtype=float), lows, highs)
     near = sp.nsimplify(peak, tolerance=1e-10, rational=False)
     peak_expr = near if (near.is_Rational and abs(float(near) - peak) < 1e-10) else sp.Float(peak, 15)

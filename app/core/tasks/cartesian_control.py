@@ -43,6 +43,7 @@ from .. import task_frame as tf
 from ..errors import UserError
 from ..exercise import ExerciseError
 from ..expressions import ExpressionError, parse_expression, symbol
+from ..numeric import numeric_function
 from . import task
 from .underactuated import Model, _inverse
 
@@ -184,10 +185,10 @@ def _closed_loop_check(m, u, a, J, Jdot_dq, kp, kd, p_d, dp_d, ddp_d, trials=5, 
     syms = list(m.q) + list(m.dq) + list(p_d) + list(dp_d) + list(ddp_d) + sorted(
         set().union(*[x.free_symbols for x in a]) - set(m.q) - set(m.dq) - set(p_d) - set(dp_d) - set(ddp_d)
         - set(gains) - set(values), key=lambda s_: s_.name)
-    f_u = sp.lambdify(syms, u.xreplace({**values, **gains}), "numpy")
-    f_a = sp.lambdify(syms, a.xreplace({**values, **gains}), "numpy")
-    f_J = sp.lambdify(syms, J.xreplace(values), "numpy")
-    f_Jd = sp.lambdify(syms, Jdot_dq.xreplace(values), "numpy")
+    f_u = numeric_function(syms, u.xreplace({**values, **gains}), "numpy")
+    f_a = numeric_function(syms, a.xreplace({**values, **gains}), "numpy")
+    f_J = numeric_function(syms, J.xreplace(values), "numpy")
+    f_Jd = numeric_function(syms, Jdot_dq.xreplace(values), "numpy")
     worst = 0.0
     for _ in range(trials):
         args = list(rng.uniform(0.2, 1.2, len(syms)))

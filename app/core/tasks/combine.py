@@ -21,6 +21,7 @@ import sympy as sp
 
 from ..exercise import ExerciseError
 from ..expressions import ExpressionError, parse_expression, symbol
+from ..numeric import numeric_function
 from ..steps import to_latex
 from . import task
 
@@ -40,7 +41,7 @@ def combine_task(ctx, spec):
         raise ExerciseError("combine.expression: it names no earlier answer")
     values = [ctx.answers[s.name] if not isinstance(ctx.answers[s.name], (list, np.ndarray))
               else sp.Matrix(ctx.answers[s.name]) for s in used]
-    value = sp.lambdify(used, expr, "sympy")(*values)
+    value = numeric_function(used, expr, "sympy")(*values)
     value = value.applyfunc(sp.expand) if isinstance(value, sp.MatrixBase) else sp.expand(value)
     L = lambda e: to_latex(e, list(ctx.robot.coordinates))
     ctx.step(f"{name}", rf"{text.replace('_', ' ')} = {L(value)}", "Combined from the earlier answers.")

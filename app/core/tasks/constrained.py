@@ -60,6 +60,7 @@ from ..exercise import ExerciseError
 from ..expressions import ExpressionError, parse_expression, symbol
 from ..kinematics import Kinematics
 from ..mathtext import symbols_text
+from ..numeric import numeric_function
 from ..steps import to_latex
 from . import task
 from .underactuated import _PROFILES, Model, _given_values, _inverse
@@ -412,7 +413,7 @@ def _evaluate_reduced(ctx, m: Model, spec, terms):
         guess = m.mapping(pl.get("guess"), "reduced_dynamics.evaluate.place.guess")
         x0 = [float(guess.get(qk, 0.0)) for qk in m.q]
         defaults = {p.symbol: p.value for p in m.robot.parameters.values()}
-        f = sp.lambdify([list(m.q)], list((pos[:len(target), 0] - target).subs(values).subs(defaults)), "numpy")
+        f = numeric_function([list(m.q)], list((pos[:len(target), 0] - target).subs(values).subs(defaults)), "numpy")
         sol = least_squares(lambda x: np.asarray(f(x), dtype=float), x0, xtol=1e-14, ftol=1e-14, gtol=1e-14)
         if np.max(np.abs(sol.fun)) > 1e-9:
             raise ExerciseError("reduced_dynamics.evaluate.place: the point cannot reach the target")

@@ -28,7 +28,7 @@ from ..errors import UserError
 from ..exercise import ExerciseError
 from ..expressions import symbol
 from ..latex import num, vec
-from ..numeric import NumericModel
+from ..numeric import NumericModel, numeric_function
 from . import task
 from .kinematic import data
 from .underactuated import Model, _elastic_pairs, _linear_stiffness
@@ -99,11 +99,11 @@ def _equilibrium(ctx, m, d, spec, links, motors, K, x, J, g, u_law, tau, Km, x_d
     rest = {v: 0 for v in list(m.dq) + list(m.ddq)}
     u_syms = {symbol(f"u{k + 1}"): u_law[k] for k in range(n)}
     tau_q = tau.xreplace(u_syms).xreplace(rest).xreplace(params)
-    f_x = sp.lambdify([qL], x.xreplace(params), "numpy")
-    f_J = sp.lambdify([qL], J.xreplace(params), "numpy")
-    f_g = sp.lambdify([qL], g.xreplace(params), "numpy")
-    f_u = sp.lambdify([qL], u_law.xreplace(rest).xreplace(params), "numpy")
-    f_tau = sp.lambdify([qL + th], tau_q, "numpy")
+    f_x = numeric_function([qL], x.xreplace(params), "numpy")
+    f_J = numeric_function([qL], J.xreplace(params), "numpy")
+    f_g = numeric_function([qL], g.xreplace(params), "numpy")
+    f_u = numeric_function([qL], u_law.xreplace(rest).xreplace(params), "numpy")
+    f_tau = numeric_function([qL + th], tau_q, "numpy")
     Kn = np.array(K.xreplace(params), float)
     guess = d.configuration(spec.get("guess"))
     z0 = np.array([guess[i] for i in links] + [guess[i] for i in motors])

@@ -26,6 +26,7 @@ import sympy as sp
 
 from ..exercise import ExerciseError
 from ..expressions import symbol
+from ..numeric import numeric_function
 from . import task
 from .underactuated import Model, _given_values
 
@@ -75,7 +76,7 @@ def static_equilibrium_task(ctx, spec):
         values = sp.Matrix([sol[u] for u in unknowns])
         how = "closed form (the only real solution at the exercise's numbers)"
     else:
-        f = sp.lambdify([unknowns], [e.subs(numbers) for e in eqs], "numpy")
+        f = numeric_function([unknowns], [e.subs(numbers) for e in eqs], "numpy")
         guess = m.mapping(spec.get("guess"), "static_equilibrium.guess")
         x0 = [float(guess.get(u, 0.0)) for u in unknowns]
         try:

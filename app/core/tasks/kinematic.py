@@ -45,6 +45,7 @@ from ..errors import UserError
 from ..exercise import ExerciseError
 from ..expressions import ExpressionError, parse_expression
 from ..latex import mat, num, vec
+from ..numeric import numeric_function
 from ..steps import symbol_latex, to_latex
 from . import task
 
@@ -126,7 +127,7 @@ class TaskData:
             else:
                 raise self._fail(f"{where}: no value for {s.name} in {text!r}")
         try:
-            return np.asarray(sp.lambdify(syms, expr, "numpy")(*values), dtype=float)
+            return np.asarray(numeric_function(syms, expr, "numpy")(*values), dtype=float)
         except (ValueError, TypeError) as exc:
             raise self._fail(f"{where}: cannot combine the values of {text!r} ({exc})") from None
 

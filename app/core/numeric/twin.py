@@ -1,184 +1,25 @@
-"""Fast numeric functions of a robot's model and its pinocchio twin.
+"""The robot built in pinocchio, and the cross-check of the symbolic model against it.
 
-``NumericModel`` evaluates M, C, c, g, spring and friction terms, energies, forward dynamics,
-frames and point Jacobians at numeric states, from lambdified (CSE) versions of the symbolic model,
-with parameters that can be changed at any time. ``PinocchioTwin`` builds the same robot in
-pinocchio and maps its joint space to the robot's coordinates; ``cross_check`` compares the two.
+``PinocchioTwin`` builds the same robot in pinocchio and maps its joint space to the robot's
+coordinates; ``cross_check`` compares the compiled symbolic model with it at random states.
 
 >>> from app.core.robot import load_robot
->>> num = NumericModel(load_robot("planar_2r"))
->>> bool(np.allclose(num.M([0.1, 0.2]), num.M([0.1, 0.2]).T))
+>>> cross_check(load_robot("planar_2r"), states=5).ok
 True
 """
 from __future__ import annotations
 
-import threading
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Dict, List, Mapping, Optional, Sequence, Tuple
+from typing import Dict, List, Mapping, Optional, Tuple, Union
 
 import numpy as np
 import sympy as sp
 
-from .dynamics import Dynamics, derive
-from .kinematics import Kinematics
-from .expressions import symbol
-from .robot import DELTA, ParameterError, RobotModel  # noqa: F401 (ParameterError re-exported)
-
-_LAMBDA_CACHE: Dict[Tuple[str, str], object] = {}
-_LAMBDA_LOCK = threading.Lock()
-
-
-def compiled_function(robot: RobotModel, tag: str, args, expr):
-    """``sympy.lambdify(args, expr)`` (numpy, common subexpressions eliminated), compiled once per
-    robot file and ``tag`` and shared by every user in the process."""
-    key = (robot.content_hash or repr(robot), tag)
-    with _LAMBDA_LOCK:
-        fn = _LAMBDA_CACHE.get(key)
-    if fn is None:
-        fn = sp.lambdify(args, expr, modules="numpy", cse=True)
-        with _LAMBDA_LOCK:
-            _LAMBDA_CACHE[key] = fn
-    return fn
-
-
-class NumericModel:
-    """Numeric evaluation of a robot's dynamics at given parameter values (defaults from the file)."""
-
-    def __init__(self, robot: RobotModel, params: Optional[Mapping[str, float]] = None,
-                 dynamics: Optional[Dynamics] = None):
-        self.robot = robot
-        if dynamics is not None:
-            self.dyn = dynamics             # else derived on first use (kinematics and pinocchio need none)
-        self.n = robot.n
-        self._q = robot.q
-        self._dq = robot.dq
-        self._ddq = robot.ddq
-        self._p = robot.parameter_symbols
-        self.set_parameters(params or {})
-
-    # ------------------------------------------------------------------ parameters
-    def set_parameters(self, params: Mapping[str, float]) -> None:
-        values = dict(self.robot.parameter_values())
-        for name, value in params.items():
-            if isinstance(value, np.number):
-                value = value.item()
-            values[name] = self.robot.check_parameter_value(name, value)
-        self.values = values
-        self.p = np.array([values[name] for name in self.robot.parameters], dtype=float)
-
-    @cached_property
-    def dyn(self) -> Dynamics:
-        """The symbolic model (derived, or read from the derivation cache, when first needed)."""
-        return derive(self.robot)
-
-    # ------------------------------------------------------------------ compiled functions
-    @cached_property
-    def _fM(self):
-        return compiled_function(self.robot, "M", [self._q, self._p], self.dyn.M)
-
-    @cached_property
-    def _fC(self):
-        return compiled_function(self.robot, "C", [self._q, self._dq, self._p], self.dyn.C)
-
-    @cached_property
-    def _fg(self):
-        return compiled_function(self.robot, "g", [self._q, self._p], self.dyn.g)
-
-    @cached_property
-    def _fk(self):
-        return compiled_function(self.robot, "k", [self._q, self._p], self.dyn.spring)
-
-    @cached_property
-    def _ffr(self):
-        return compiled_function(self.robot, "friction", [self._dq, self._p], self.dyn.friction)
-
-    @cached_property
-    def _fE(self):
-        T = sum(self.dyn.kinetic.values(), sp.Integer(0))
-        U = sum(self.dyn.potential.values(), sp.Integer(0))
-        return compiled_function(self.robot, "energy", [self._q, self._dq, self._p], sp.Matrix([T, U]))
-
-    # ------------------------------------------------------------------ evaluation
-    def _qv(self, q):
-        q = np.asarray(q, dtype=float).reshape(-1)
-        if q.size != self.n:
-            raise ValueError(f"expected {self.n} coordinates, got {q.size}")
-        return q
-
-    def M(self, q) -> np.ndarray:
-        return np.asarray(self._fM(self._qv(q), self.p), dtype=float).reshape(self.n, self.n)
-
-    def C(self, q, dq) -> np.ndarray:
-        return np.asarray(self._fC(self._qv(q), self._qv(dq), self.p), dtype=float).reshape(self.n, self.n)
-
-    def c(self, q, dq) -> np.ndarray:
-        return self.C(q, dq) @ self._qv(dq)
-
-    def g(self, q) -> np.ndarray:
-        return np.asarray(self._fg(self._qv(q), self.p), dtype=float).reshape(self.n)
-
-    def spring(self, q) -> np.ndarray:
-        return np.asarray(self._fk(self._qv(q), self.p), dtype=float).reshape(self.n)
-
-    def friction(self, dq) -> np.ndarray:
-        return np.asarray(self._ffr(self._qv(dq), self.p), dtype=float).reshape(self.n)
-
-    def bias(self, q, dq) -> np.ndarray:
-        """c + g + k + friction: everything but M q''."""
-        return self.c(q, dq) + self.g(q) + self.spring(q) + self.friction(dq)
-
-    def inverse_dynamics(self, q, dq, ddq) -> np.ndarray:
-        return self.M(q) @ self._qv(ddq) + self.bias(q, dq)
-
-    def forward_dynamics(self, q, dq, tau) -> np.ndarray:
-        return np.linalg.solve(self.M(q), np.asarray(tau, dtype=float) - self.bias(q, dq))
-
-    def energy(self, q, dq) -> Tuple[float, float]:
-        """(kinetic, potential) energy; potential includes gravity and springs."""
-        T, U = np.asarray(self._fE(self._qv(q), self._qv(dq), self.p), dtype=float).reshape(2)
-        return float(T), float(U)
-
-    # ------------------------------------------------------------------ kinematics
-    @cached_property
-    def _kin(self) -> Kinematics:
-        return Kinematics(self.robot)
-
-    @cached_property
-    def _fframes(self):
-        mats = []
-        for body in self.robot.bodies:
-            fr = self._kin.frames[body.name]
-            for f in (fr["joint"], fr["body"]):
-                T = sp.eye(4)
-                T[:3, :3] = f.R
-                T[:3, 3] = f.p
-                mats.append(T)
-        return compiled_function(self.robot, "frames", [self._q, self._p], mats)
-
-    def frames(self, q) -> Dict[str, Dict[str, np.ndarray]]:
-        """World 4x4 transforms of each body's joint frame (before motion) and body frame."""
-        mats = self._fframes(self._qv(q), self.p)
-        out = {}
-        for i, body in enumerate(self.robot.bodies):
-            out[body.name] = {"joint": np.asarray(mats[2 * i], dtype=float),
-                              "body": np.asarray(mats[2 * i + 1], dtype=float)}
-        return out
-
-    def point_function(self, body: Optional[str], local):
-        """Compiled (position(q), jacobian(q)) of a point fixed in a body."""
-        local = sp.Matrix(local)
-        pos = self._kin.point_position(body, local)
-        jac = pos.jacobian(sp.Matrix(self._q))
-        tag = f"point:{body}:{list(local)}"
-        fp = compiled_function(self.robot, tag, [self._q, self._p], pos)
-        fj = compiled_function(self.robot, tag + ":J", [self._q, self._p], jac)
-        return (lambda q: np.asarray(fp(self._qv(q), self.p), dtype=float).reshape(3),
-                lambda q: np.asarray(fj(self._qv(q), self.p), dtype=float).reshape(3, self.n))
-
-    def named_point(self, name: str):
-        pt = self.robot.points[name]
-        return self.point_function(pt.body, pt.position)
+from ..dynamics import Dynamics
+from ..robot import DELTA, RobotModel
+from ..expressions import symbol
+from .model import CompiledModel, NumericModel, compiled_model
 
 
 # ====================================================================== pinocchio twin
@@ -229,14 +70,15 @@ class PinocchioTwin:
         self.model = model
         self.data = model.createData()
         self._joint_of, self._frame_in_joint = joint_of, frame_in_joint
-        theta = sp.Matrix(joint_exprs).subs(subs)
-        E = theta.jacobian(sp.Matrix(q))
-        dq = robot.dq
-        Edot_dq = (E * sp.Matrix(dq)).jacobian(sp.Matrix(q)) * sp.Matrix(dq)
-        self._theta = sp.lambdify([q], theta, "numpy")
-        self._E = sp.lambdify([q], E, "numpy")
-        self._Edq = sp.lambdify([q, dq], Edot_dq, "numpy")
         self.nj = len(joint_exprs)
+        # theta(q), E(q), E'(q) q' compiled once per robot content, evaluated at these values
+        self.compiled = cm = compiled_model(robot)
+        p = np.array([{**robot.parameter_values(), **values}[k] for k in robot.parameters], dtype=float)
+        self._p = p
+        fth, fE, fEdq = _joint_map(cm, joint_exprs)
+        self._theta = lambda q: fth(q, p)
+        self._E = lambda q: fE(q, p)
+        self._Edq = lambda q, dq: fEdq(q, dq, p)
 
     def body_frames(self, q) -> Dict[str, np.ndarray]:
         """World 4x4 transform of every body frame at coordinates q, by pinocchio's forward
@@ -253,15 +95,17 @@ class PinocchioTwin:
     @cached_property
     def _stretch_springs(self):
         """(stretch(q), its gradient(q), elastic force law f(delta)) of each spring given by ``expr``."""
-        q, delta, out = self.robot.q, symbol(DELTA), []
-        for spring in self.robot.springs:
+        robot, p, out = self.robot, self._p, []
+        q, ps, delta = robot.q, robot.parameter_symbols, symbol(DELTA)
+        for i, spring in enumerate(robot.springs):
             if spring.expr is None:
                 continue
-            stretch = (spring.expr - spring.rest).subs(self._subs)
-            law = (spring.stiffness * delta if spring.is_linear else spring.force).subs(self._subs)
-            out.append((sp.lambdify([q], stretch, "numpy"),
-                        sp.lambdify([q], [sp.diff(stretch, qk) for qk in q], "numpy"),
-                        sp.lambdify([delta], law, "numpy")))
+            stretch = spring.expr - spring.rest
+            law = spring.stiffness * delta if spring.is_linear else spring.force
+            fs = self.compiled.compile(f"twin:spring{i}", [q, ps], stretch)
+            fg = self.compiled.compile(f"twin:spring{i}:grad", [q, ps], [sp.diff(stretch, qk) for qk in q])
+            fl = self.compiled.compile(f"twin:spring{i}:law", [delta, ps], law)
+            out.append((lambda x, f=fs: f(x, p), lambda x, f=fg: f(x, p), lambda d, f=fl: f(d, p)))
         return out
 
     def _point(self, body: Optional[str], local: sp.Matrix) -> Tuple[np.ndarray, np.ndarray]:
@@ -350,6 +194,21 @@ class PinocchioTwin:
         return Mq, cq, gq
 
 
+def _joint_map(cm: CompiledModel, joint_exprs) -> Tuple:
+    """theta(q, p), E(q, p) = d theta / d q and E'(q) q' (q, q', p): pinocchio's joint variables
+    from the robot's coordinates."""
+    robot = cm.robot
+    q, dq, ps = robot.q, robot.dq, robot.parameter_symbols
+
+    def terms():
+        theta = sp.Matrix(joint_exprs)
+        E = theta.jacobian(sp.Matrix(q))
+        return theta, E, (E * sp.Matrix(dq)).jacobian(sp.Matrix(q)) * sp.Matrix(dq)
+    return (cm.function("twin:theta", lambda: ([q, ps], terms()[0])),
+            cm.function("twin:E", lambda: ([q, ps], terms()[1])),
+            cm.function("twin:Edq", lambda: ([q, dq, ps], terms()[2])))
+
+
 @dataclass
 class CrossCheck:
     robot: str
@@ -373,14 +232,18 @@ def random_state(robot: RobotModel, rng: np.random.Generator) -> Tuple[np.ndarra
     return q, rng.uniform(-2, 2, robot.n)
 
 
-def cross_check(robot: RobotModel, params: Optional[Mapping[str, float]] = None, states: int = 50,
-                seed: int = 0, tolerance: float = 1e-9, dynamics: Optional[Dynamics] = None) -> CrossCheck:
+def cross_check(robot: Union[RobotModel, CompiledModel], params: Optional[Mapping[str, float]] = None,
+                states: int = 50, seed: int = 0, tolerance: float = 1e-9,
+                dynamics: Optional[Dynamics] = None) -> CrossCheck:
     """Compare symbolic M, C q', g with pinocchio at random states, and the spring and friction
     terms with their direct evaluation from the robot file. Errors are relative to the size of the
     model at that state (the largest entry of M, C q' and g, at least 1): pinocchio gets C q' as
     rnea(q, q', 0) - g, so its round-off follows the largest term, e.g. g with a mass of 1e9 kg.
-    ``dynamics``: the robot's model when the caller has derived it already (else derived here)."""
+    ``robot``: a robot or its compiled model (``compiled_model(robot, dynamics)``, whose functions
+    are then used as they are); ``dynamics``: the robot's model when the caller has derived it
+    already (else derived here when needed)."""
     num = NumericModel(robot, params, dynamics)
+    robot = num.robot
     twin = PinocchioTwin(robot, num.values)
     rng = np.random.default_rng(seed)
     worst = {"M": 0.0, "Cdq": 0.0, "g": 0.0}
