@@ -9,7 +9,7 @@ import pytest
 import sympy as sp
 
 from app.core.dynamics import derive
-from app.core.numeric import cross_check
+from app.core.numeric import compiled_model, cross_check
 from app.core.robot import parse_robot
 from app.core.trig import TrigPoly
 
@@ -69,14 +69,15 @@ def random_robot(seed: int) -> dict:
 def test_random_robot_identities(seed):
     robot = parse_robot(random_robot(seed), f"random{seed}")
     dyn = derive(robot, use_cache=False)
-    check = cross_check(robot, states=20, dynamics=dyn)
+    model = compiled_model(robot, dyn)        # derived once: the cross-check and Y below use it
+    check = cross_check(model, states=20)
     assert check.ok, check.summary()
     assert dyn.M == dyn.M.T
     par = dyn.parametrization
     lhs = dyn.equations() - par.Y * sp.Matrix(par.a) - par.known_terms
     assert all(TrigPoly.from_expr(e).is_zero() for e in lhs)
     # the coefficients are independent: Y at random states has full column rank
-    f = sp.lambdify([dyn.q, dyn.dq, dyn.ddq, robot.parameter_symbols], par.Y, "numpy")
+    f = model.regressor()
     rng = np.random.default_rng(seed)
     p = [robot.parameters[k].value for k in robot.parameters]
     Ys = np.vstack([np.asarray(f(*rng.uniform(-1, 1, (3, robot.n)), p), dtype=float) for _ in range(3 * par.count)])
