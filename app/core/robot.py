@@ -33,7 +33,7 @@ from .mass_check import singular_directions
 from .robot_model import (  # noqa: F401  (re-exported: the robot module is the entry point)
     DELTA, GROUPS, KNOWN_KINDS, NON_NEGATIVE_KINDS, PARAMETER_KINDS, RESERVED_NAMES, Body, Damper,
     Joint, Limits, Parameter, ParameterError, Point, RobotModel, Spring, Transform, check_parameter,
-    elementary_rotation)
+    elementary_rotation, refuse_negative)
 from .urdf import is_urdf, robot_data_from_urdf
 
 class RobotFileError(UserError):
@@ -566,9 +566,10 @@ def _check_physics(ctx: _Ctx, robot: "RobotModel") -> None:
 
     def non_negative(expr, where, what):
         value = _value_at(ctx, expr, values, where)
-        if value < 0:
-            shown = f"got {value:g}" if expr.is_number else f"{sp.sstr(expr)[:40]} = {value:g} at the default parameter values"
-            raise ctx.fail(where, f"a {what} must not be negative ({shown})")
+        shown = "" if expr.is_number else f"{sp.sstr(expr)[:40]} = {value:g} at the default parameter values"
+        refusal = refuse_negative(f"a {what}", value, shown)
+        if refusal:
+            raise ctx.fail(where, refusal)
 
     for i, body in enumerate(robot.bodies):
         where = f"bodies[{i}] ({body.name})"

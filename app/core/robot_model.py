@@ -43,6 +43,22 @@ class ParameterError(UserError):
     """A parameter value is not acceptable (negative mass, not a number, ...)."""
 
 
+def refuse_negative(what: str, value: float, shown: str = "") -> str:
+    """The one rule for physical amounts that cannot be negative (masses, inertias, stiffnesses,
+    damping and friction coefficients): '' when ``value`` is fine, else the refusal, e.g. "a mass
+    must not be negative (got -1)" (``what`` with its article; ``shown``: how the value is shown,
+    default "got <value>"). Used for parameter values typed or given (``check_parameter``), for
+    the amounts of a robot file at its default values (app.core.robot) and for the throwing arm's
+    wrist spring.
+
+    >>> refuse_negative("a mass", 2.0), refuse_negative("a mass", -1)
+    ('', 'a mass must not be negative (got -1)')
+    """
+    if value >= 0:
+        return ""
+    return f"{what} must not be negative ({shown or f'got {value:g}'})"
+
+
 def check_parameter(name: str, kind: str, value) -> float:
     """The one rule for a parameter's value: a finite real number, not negative for the kinds in
     NON_NEGATIVE_KINDS (masses, lengths, inertias, stiffnesses, friction). Returns it as a float.
@@ -58,8 +74,9 @@ def check_parameter(name: str, kind: str, value) -> float:
         raise ParameterError(f"{name}: expected a number, got {excerpt(value, 30)}")
     if not math.isfinite(value):
         raise ParameterError(f"{name}: expected a finite number, got {value!r}")
-    if kind in NON_NEGATIVE_KINDS and value < 0:
-        raise ParameterError(f"{name}: {'an' if kind[0] in 'aeiou' else 'a'} {kind} must not be negative (got {value:g})")
+    refusal = refuse_negative(f"{'an' if kind[0] in 'aeiou' else 'a'} {kind}", value) if kind in NON_NEGATIVE_KINDS else ""
+    if refusal:
+        raise ParameterError(f"{name}: {refusal}")
     return float(value)
 
 
