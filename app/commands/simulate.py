@@ -54,7 +54,7 @@ def add_arguments(p):
 
 
 def _contacts(args):
-    from app.core.sim import parse_contact
+    from app.core.sim_input import parse_contact
     return ([parse_contact("force", text) for text in args.force]
             + [parse_contact("surface", text) for text in args.surface])
 
@@ -93,10 +93,30 @@ def summary(res) -> dict:
     return out
 
 
-def run(args) -> int:
+def options(args):
+    """The SimOptions of the command line's options (a SimulationError names a bad one)."""
     from app.core.control import parse_gains
+    from app.core.sim import SimOptions
+    from app.core.sim_input import parse_assignments, parse_numbers
+    passive = None
+    if args.passive is not None:
+        passive = [c.strip() for c in args.passive.split(",") if c.strip()]
+    saturation = args.saturation
+    if saturation is not None and saturation.strip() != "limits":
+        saturation = parse_numbers(saturation, "--saturation")
+    observer = parse_numbers(args.observer, "--observer") if args.observer is not None else None
+    return SimOptions(
+        duration=args.duration, rate=args.rate, substeps=args.substeps, q0=parse_numbers(args.q0, "--q0"),
+        dq0=parse_numbers(args.dq0, "--dq0"), gains=parse_gains(args.gains),
+        plant_params=parse_assignments(args.plant, "--plant") or None,
+        model_params=parse_assignments(args.model, "--model") or None, viscous=parse_numbers(args.viscous, "--viscous"),
+        saturation=saturation.strip() if isinstance(saturation, str) else saturation, passive=passive,
+        contacts=_contacts(args), observer=observer, point=args.point, backend=args.backend)
+
+
+def run(args) -> int:
     from app.core.errors import UserError
-    from app.core.sim import parse_assignments, parse_numbers, simulate
+    from app.core.sim import simulate
 
     if args.list:
         list_controllers()
@@ -105,20 +125,7 @@ def run(args) -> int:
         raise UserError("give a robot (a shipped name or a robot file), or --list for the controllers")
     if not args.controller:
         raise UserError("give a controller with --controller NAME (--list shows them)")
-    passive = None
-    if args.passive is not None:
-        passive = [c.strip() for c in args.passive.split(",") if c.strip()]
-    saturation = args.saturation
-    if saturation is not None and saturation.strip() != "limits":
-        saturation = parse_numbers(saturation, "--saturation")
-    observer = parse_numbers(args.observer, "--observer") if args.observer is not None else None
-    res = simulate(
-        args.robot, args.controller, reference=args.reference or None, duration=args.duration, rate=args.rate,
-        substeps=args.substeps, q0=parse_numbers(args.q0, "--q0"), dq0=parse_numbers(args.dq0, "--dq0"),
-        gains=parse_gains(args.gains), plant_params=parse_assignments(args.plant, "--plant") or None,
-        model_params=parse_assignments(args.model, "--model") or None, viscous=parse_numbers(args.viscous, "--viscous"),
-        saturation=saturation.strip() if isinstance(saturation, str) else saturation, passive=passive,
-        contacts=_contacts(args), observer=observer, point=args.point, backend=args.backend)
+    res = simulate(args.robot, args.controller, reference=args.reference or None, options=options(args))
     if args.out:
         try:
             res.to_csv(args.out)

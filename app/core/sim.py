@@ -23,6 +23,7 @@ that time (here a PD far too soft to hold the throwing arm up):
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import math
 import time
@@ -331,22 +332,14 @@ def _vector_option(value, n: int, what: str, sign: str = "any") -> Optional[np.n
     return arr
 
 
-def simulate(robot: Union[RobotModel, str], controller: Union[Controller, str], reference=None,
-             duration: float = 2.0, rate: float = 1000.0, substeps: int = 1,
-             q0: Optional[Sequence[float]] = None, dq0: Optional[Sequence[float]] = None,
-             gains: Optional[Mapping[str, float]] = None,
-             plant_params: Optional[Mapping[str, float]] = None,
-             model_params: Optional[Mapping[str, float]] = None,
-             viscous=None, saturation=None, passive: Optional[Sequence[str]] = None,
-             contacts: Sequence[Union[PointForce, Surface]] = (), observer=None,
-             point: Optional[str] = None, backend: str = "auto", progress: Progress = None,
-             stop_at_limits: bool = True, max_speed: float = 1e3) -> SimResult:
-    """Run ``controller`` in closed loop on ``robot`` for ``duration`` seconds.
+@dataclass
+class SimOptions:
+    """How a run is set up (``simulate``'s keyword arguments):
 
-    - ``controller``: a Controller or its name (``gains`` then sets its gains by name).
-    - ``reference``: a Reference, a text such as ``"quintic goal=1,0.5 T=2"``
-      (trajectories.parse_reference), or None (hold the initial value).
-    - ``rate``: control rate in Hz (zero-order hold); the plant takes ``substeps`` RK4 steps per period.
+    - ``duration`` [s]; ``rate``: control rate in Hz (zero-order hold); the plant takes
+      ``substeps`` RK4 steps per period.
+    - ``q0``, ``dq0``: initial state (default: the robot file's defaults, else 0; at rest).
+    - ``gains``: the controller's gains by name (when it is given by name, or set on it).
     - ``plant_params`` / ``model_params``: parameter overrides of the real plant and of the
       controller's model (model mismatch); ``viscous``: extra viscous friction of the plant
       (N m s/rad, one value or one per coordinate), unknown to the controller.
@@ -355,13 +348,99 @@ def simulate(robot: Union[RobotModel, str], controller: Union[Controller, str], 
     - ``contacts``: PointForce and Surface objects; ``observer``: K_I gain(s) of a momentum-based
       collision residual running beside the controller; ``point``: the task point of Cartesian
       controllers (default: a surface's point, else 'ee', else the robot's first point).
-    - ``progress(fraction, message)``: called about 100 times; returning False stops the run.
+    - ``backend``: ``auto`` (pinocchio where it applies), ``pinocchio`` or ``symbolic``.
     - ``stop_at_limits``: stop when a coordinate leaves its position limits; any run also stops on
       NaN, or when a speed exceeds ``max_speed``.
     """
+    duration: float = 2.0
+    rate: float = 1000.0
+    substeps: int = 1
+    q0: Optional[Sequence[float]] = None
+    dq0: Optional[Sequence[float]] = None
+    gains: Optional[Mapping[str, float]] = None
+    plant_params: Optional[Mapping[str, float]] = None
+    model_params: Optional[Mapping[str, float]] = None
+    viscous: object = None
+    saturation: object = None
+    passive: Optional[Sequence[str]] = None
+    contacts: Sequence[Union[PointForce, Surface]] = ()
+    observer: object = None
+    point: Optional[str] = None
+    backend: str = "auto"
+    stop_at_limits: bool = True
+    max_speed: float = 1e3
+
+
+@dataclass
+class _Setup:
+    """Everything a run needs, checked and resolved (``_prepare``)."""
+    robot: RobotModel
+    opts: SimOptions
+    N: int
+    period: float
+    q0: np.ndarray
+    dq0: np.ndarray
+    limits: Tuple[np.ndarray, np.ndarray]
+    actuated: np.ndarray
+    bounds: Optional[np.ndarray]
+    viscous: Optional[np.ndarray]
+    model: ModelTerms
+    plant_terms: ModelTerms
+    resolved: List[_Contact]
+    plant: "_Plant"
+    controller: Controller
+    reference: Reference
+    ref_names: List[str]
+    obs: Optional[MomentumObserver]
+    sensor: Dict[str, np.ndarray]
+
+
+@dataclass
+class _Record:
+    """The arrays a run fills, one row per control sample."""
+    t: np.ndarray
+    QD: np.ndarray
+    DQD: np.ndarray
+    DDQD: np.ndarray
+    Q: np.ndarray
+    DQ: np.ndarray
+    DDQ: np.ndarray
+    TAU: np.ndarray
+    internal_names: List[str]
+    INT: Optional[np.ndarray]
+    contact_names: List[str]
+    FORCES: Optional[np.ndarray]
+    TEXT: Optional[np.ndarray]
+    CPOS: Optional[np.ndarray]
+    message: str = ""
+    last: int = 0
+    loop_time: float = 0.0
+
+
+def simulate(robot: Union[RobotModel, str], controller: Union[Controller, str], reference=None,
+             options: Optional[SimOptions] = None, progress: Progress = None, **settings) -> SimResult:
+    """Run ``controller`` (a Controller or its name) in closed loop on ``robot`` (a RobotModel or
+    a shipped robot's name) and return the samples.
+
+    - ``reference``: a Reference, a text such as ``"quintic goal=1,0.5 T=2"``
+      (trajectories.parse_reference), or None (hold the initial value).
+    - ``options``: a SimOptions, or its fields as keyword arguments (``duration=3, q0=[0, 0]``).
+    - ``progress(fraction, message)``: called about 100 times; returning False stops the run.
+    """
     wall0 = time.perf_counter()
-    robot = robot if isinstance(robot, RobotModel) else load_robot(robot)
-    n = robot.n
+    opts = dataclasses.replace(options or SimOptions(), **settings)
+    s = _prepare(robot if isinstance(robot, RobotModel) else load_robot(robot), controller, reference, opts)
+    rec = _run(s, progress)
+    if rec.last < 0:
+        raise SimulationError(rec.message or "the simulation stopped before its first sample")
+    if progress is not None and not rec.message:
+        progress(1.0, "done")
+    return _result(s, rec, wall0)
+
+
+def _steps(opts: SimOptions) -> Tuple[int, float]:
+    """(control samples N, period) of a run, checked."""
+    duration, rate, substeps = opts.duration, opts.rate, opts.substeps
     if not duration > 0 or not math.isfinite(duration):
         raise SimulationError(f"the duration must be a positive number of seconds, got {duration}")
     if not rate > 0 or not math.isfinite(rate):
@@ -375,10 +454,12 @@ def simulate(robot: Union[RobotModel, str], controller: Union[Controller, str], 
     N = int(round(duration * rate))
     if N < 1:
         raise SimulationError(f"{duration} s at {rate:g} Hz is less than one control period")
-    period = 1.0 / rate
-    h = period / substeps
+    return N, 1.0 / rate
 
-    # initial state
+
+def _initial_state(robot: RobotModel, opts: SimOptions):
+    """(q0, dq0, position limits), checked."""
+    n, q0, dq0 = robot.n, opts.q0, opts.dq0
     if q0 is None:
         q0 = [robot.defaults.get(c, 0.0) for c in robot.coordinates]
     if np.size(q0) != n:
@@ -388,14 +469,18 @@ def simulate(robot: Union[RobotModel, str], controller: Union[Controller, str], 
     if dq0.size != n or not np.all(np.isfinite(dq0)):
         raise SimulationError(f"dq0 needs {n} finite values ({', '.join(robot.coordinates)})")
     limits = _position_limits(robot)
-    if stop_at_limits:
+    if opts.stop_at_limits:
         bad = np.flatnonzero((q0 < limits[0]) | (q0 > limits[1]))
         if bad.size:
             i = bad[0]
             raise SimulationError(f"the initial {robot.coordinates[i]} = {q0[i]:g} is outside its limits "
                                   f"[{limits[0][i]:g}, {limits[1][i]:g}]")
+    return q0, dq0, limits
 
-    # actuation
+
+def _actuation(robot: RobotModel, opts: SimOptions):
+    """(actuated mask, torque bounds or None), checked."""
+    n, passive, saturation = robot.n, opts.passive, opts.saturation
     if passive is None:
         actuated = np.array(robot.actuated, dtype=bool)
     else:
@@ -403,9 +488,6 @@ def simulate(robot: Union[RobotModel, str], controller: Union[Controller, str], 
         if unknown:
             raise SimulationError(f"passive: unknown coordinate(s) {unknown} (the robot has {list(robot.coordinates)})")
         actuated = np.array([c not in passive for c in robot.coordinates], dtype=bool)
-    mask = None if actuated.all() else actuated.astype(float)
-
-    # torque bounds
     if isinstance(saturation, str):
         if saturation != "limits":
             raise SimulationError(f"saturation: a number, one per coordinate, or 'limits' (got {saturation!r})")
@@ -415,16 +497,15 @@ def simulate(robot: Union[RobotModel, str], controller: Union[Controller, str], 
             raise SimulationError(f"{robot.name} has no torque limits in its file; give bounds as numbers")
     else:
         bounds = _vector_option(saturation, n, "saturation (torque bounds)", "positive")
+    return actuated, bounds
 
-    # models: controller's and plant's
-    viscous = _vector_option(viscous, n, "viscous friction", "nonnegative")
-    model = ModelTerms(robot, model_params, backend)
-    plant_terms = ModelTerms(robot, plant_params, backend, extra_viscous=viscous)
 
-    # contacts
-    resolved = [_Contact(c, robot, plant_terms.values, q0) for c in contacts]
-    rigid = [c for c in resolved if c.kind == "rigid"]
-    for c in rigid:
+def _contacts(robot: RobotModel, opts: SimOptions, plant_terms: ModelTerms, q0, dq0) -> List[_Contact]:
+    """The contacts resolved at the plant's parameters; a rigid one must start on its surface."""
+    resolved = [_Contact(c, robot, plant_terms.values, q0) for c in opts.contacts]
+    for c in resolved:
+        if c.kind != "rigid":
+            continue
         gap = c.n @ c.point.position(q0) - c.offset
         if abs(gap) > 1e-6:
             raise SimulationError(f"the point {c.name} is {gap * 1000:.3g} mm from the rigid surface at the start; "
@@ -432,14 +513,24 @@ def simulate(robot: Union[RobotModel, str], controller: Union[Controller, str], 
         vn = c.n @ (c.point.jacobian(q0) @ dq0)
         if abs(vn) > 1e-9:
             raise SimulationError(f"the point {c.name} starts moving across the rigid surface (normal speed {vn:g} m/s)")
-    plant = _Plant(plant_terms, resolved)
+    return resolved
 
-    # controller
+
+def _prepare(robot: RobotModel, controller, reference, opts: SimOptions) -> _Setup:
+    """Check the options, build the controller's model and the plant, set the controller up."""
+    N, period = _steps(opts)
+    q0, dq0, limits = _initial_state(robot, opts)
+    actuated, bounds = _actuation(robot, opts)
+    viscous = _vector_option(opts.viscous, robot.n, "viscous friction", "nonnegative")
+    model = ModelTerms(robot, opts.model_params, opts.backend)
+    plant_terms = ModelTerms(robot, opts.plant_params, opts.backend, extra_viscous=viscous)
+    resolved = _contacts(robot, opts, plant_terms, q0, dq0)
+    plant = _Plant(plant_terms, resolved)
     if isinstance(controller, str):
-        controller = make_controller(controller, gains)
-    elif gains:
-        controller.set_gains(gains)
-    task_point = point
+        controller = make_controller(controller, opts.gains)
+    elif opts.gains:
+        controller.set_gains(opts.gains)
+    task_point = opts.point
     if task_point is None:
         task_point = next((c.spec.point for c in resolved if c.kind != "force"), None)
     setup = ControlSetup(robot=robot, model=model, period=period, actuated=actuated, q0=q0, dq0=dq0,
@@ -450,9 +541,8 @@ def simulate(robot: Union[RobotModel, str], controller: Union[Controller, str], 
     setup.read_force = lambda name: sensor.get(name)
     controller.setup(setup)
     ref_names = controller.reference_names
-    start = controller.reference_start
     if reference is None or isinstance(reference, str):
-        reference = parse_reference(reference, start, ref_names)
+        reference = parse_reference(reference, controller.reference_start, ref_names)
     if not isinstance(reference, Reference):
         raise SimulationError("reference: a text like 'quintic goal=1,0.5 T=2' or a trajectories.Reference")
     if reference.n != len(ref_names):
@@ -460,59 +550,59 @@ def simulate(robot: Union[RobotModel, str], controller: Union[Controller, str], 
                               f"({', '.join(ref_names)}), got {reference.n}")
     controller.begin(reference)
     obs = None
-    if observer is not None:
-        obs = MomentumObserver(observer)
+    if opts.observer is not None:
+        obs = MomentumObserver(opts.observer)
         obs.setup(setup)
+    return _Setup(robot, opts, N, period, q0, dq0, limits, actuated, bounds, viscous, model, plant_terms,
+                  resolved, plant, controller, reference, ref_names, obs, sensor)
 
-    # time grid and reference, sampled once
-    t = np.arange(N + 1) * period
-    QD, DQD, DDQD = reference.sample(t)
-    Q = np.empty((N + 1, n))
-    DQ = np.empty((N + 1, n))
-    DDQ = np.empty((N + 1, n))
-    TAU = np.empty((N + 1, n))
-    internal_names = list(controller.internal_names) + ([] if obs is None else list(obs.internal_names))
-    INT = np.empty((N + 1, len(internal_names))) if internal_names else None
-    contact_names = [c.name for c in resolved]
-    FORCES = np.zeros((N + 1, len(resolved), resolved[0].point.dim)) if resolved else None
-    TEXT = np.zeros((N + 1, n)) if resolved else None
-    CPOS = np.zeros((N + 1, len(resolved), resolved[0].point.dim)) if resolved else None
 
-    # the loop
-    step = controller.step
-    accel = plant.accel
+def _record(s: _Setup) -> _Record:
+    """The time grid, the reference sampled once, and empty arrays for the run."""
+    N, n, resolved = s.N, s.robot.n, s.resolved
+    t = np.arange(N + 1) * s.period
+    QD, DQD, DDQD = s.reference.sample(t)
+    internal_names = list(s.controller.internal_names) + ([] if s.obs is None else list(s.obs.internal_names))
+    dim = resolved[0].point.dim if resolved else 0
+    return _Record(t, QD, DQD, DDQD, np.empty((N + 1, n)), np.empty((N + 1, n)), np.empty((N + 1, n)),
+                   np.empty((N + 1, n)), internal_names,
+                   np.empty((N + 1, len(internal_names))) if internal_names else None, [c.name for c in resolved],
+                   np.zeros((N + 1, len(resolved), dim)) if resolved else None,
+                   np.zeros((N + 1, n)) if resolved else None,
+                   np.zeros((N + 1, len(resolved), dim)) if resolved else None, last=N)
+
+
+def _run(s: _Setup, progress: Progress) -> _Record:
+    """The loop: sense, control (zero-order hold), record, RK4 ``substeps`` times per period; stops
+    on a singular matrix, a controller's stop, NaN, the limits, too high a speed or the user."""
+    rec = _record(s)
+    n, N, substeps, robot = s.robot.n, s.N, s.opts.substeps, s.robot
+    t, QD, DQD, DDQD, Q, DQ, DDQ, TAU, INT = rec.t, rec.QD, rec.DQD, rec.DDQD, rec.Q, rec.DQ, rec.DDQ, rec.TAU, rec.INT
+    step, accel, plant, resolved, sensor, obs = s.controller.step, s.plant.accel, s.plant, s.resolved, s.sensor, s.obs
+    bounds, mask = s.bounds, (None if s.actuated.all() else s.actuated.astype(float))
     has_contacts = bool(resolved)
-    ctrl_internals = controller.internals if controller.internal_names else None
-    lo, hi = limits
-    names = robot.coordinates
-    check_every = 10
-    progress_every = max(1, N // 100)
-    x = np.concatenate((q0, dq0))
+    ctrl_internals = s.controller.internals if s.controller.internal_names else None
+    check_every, progress_every = 10, max(1, N // 100)
+    x = np.concatenate((s.q0, s.dq0))
     q, dq = x[:n], x[n:]
     cat = np.concatenate
     tau = np.zeros(n)
+    h = s.period / substeps
     h2, h6 = h / 2, h / 6
-    message = ""
-    last = N
     loop_start = time.perf_counter()
     for k in range(N + 1):
         tk = t[k]
         try:
             if has_contacts:      # the force sensor, read before the new torque is applied
                 for j, f in enumerate(plant.forces(tk, q, dq, tau)):
-                    sensor[contact_names[j]] = f
+                    sensor[rec.contact_names[j]] = f
             tau = step(k, tk, q, dq, QD[k], DQD[k], DDQD[k])
             if bounds is not None:
                 tau = np.clip(tau, -bounds, bounds)
             if mask is not None:
                 tau = tau * mask
             if has_contacts:      # the contact forces acting from t_k on (with the new torque)
-                text = np.zeros(n)
-                for j, f in enumerate(plant.forces(tk, q, dq, tau)):
-                    FORCES[k, j] = f
-                    CPOS[k, j] = resolved[j].point.position(q)
-                    text = text + resolved[j].joint_torque(tk, q, f)
-                TEXT[k] = text
+                _record_contacts(rec, k, plant, resolved, tk, q, dq, tau, n)
             if obs is not None:
                 obs.update(q, dq, tau)
             Q[k] = q
@@ -524,16 +614,13 @@ def simulate(robot: Union[RobotModel, str], controller: Union[Controller, str], 
                     INT[k, :ci.size] = ci
                 if obs is not None:
                     INT[k, INT.shape[1] - n:] = obs.r
-            if has_contacts:
-                a1 = accel(q, dq, tau, tk)
-            else:
-                a1 = accel(q, dq, tau)
+            a1 = accel(q, dq, tau, tk) if has_contacts else accel(q, dq, tau)
             DDQ[k] = a1
             if k == N:
                 break
-            for s in range(substeps):      # RK4 on x = (q, q'), k = (q', q'')
-                ts = tk + s * h
-                if s:
+            for sub in range(substeps):      # RK4 on x = (q, q'), k = (q', q'')
+                ts = tk + sub * h
+                if sub:
                     a1 = accel(q, dq, tau, ts) if has_contacts else accel(q, dq, tau)
                 k1 = cat((dq, a1))
                 x2 = x + h2 * k1
@@ -547,95 +634,115 @@ def simulate(robot: Union[RobotModel, str], controller: Union[Controller, str], 
                 k4 = cat((v, accel(x4[:n], v, tau, ts + h) if has_contacts else accel(x4[:n], v, tau)))
                 x = x + h6 * (k1 + 2.0 * (k2 + k3) + k4)
                 q, dq = x[:n], x[n:]
-        except np.linalg.LinAlgError as exc:
-            message = f"stopped at t = {tk:.3f} s: a singular matrix ({exc}) - a singular configuration?"
-            last = k - 1
+        except (np.linalg.LinAlgError, FloatingPointError, ControlStop) as exc:
+            rec.message, rec.last = _stop_message(exc, tk), k - 1
             break
-        except FloatingPointError as exc:
-            message = f"stopped at t = {tk:.3f} s: {exc}"
-            last = k - 1
+        if (k % check_every == check_every - 1 or k == N - 1) and _left_bounds(s, rec, k, q, dq):
             break
-        except ControlStop as stop:
-            message = f"{stop} at t = {tk:.3f} s"
-            last = k - 1
-            break
-        if k % check_every == check_every - 1 or k == N - 1:
-            bad = _first_bad(q, dq, lo, hi, stop_at_limits, max_speed, names)
-            if bad is not None:
-                # locate the first bad sample exactly: replay the check on the recorded block
-                j0 = k - (k % check_every)
-                first = None
-                for j in range(j0, k + 1):
-                    if _first_bad(Q[j], DQ[j], lo, hi, stop_at_limits, max_speed, names) is not None:
-                        first = j
-                        break
-                if first is None:          # the state just reached (sample k + 1)
-                    first, qs, dqs = k + 1, q, dq
-                else:
-                    qs, dqs = Q[first], DQ[first]
-                what = _first_bad(qs, dqs, lo, hi, stop_at_limits, max_speed, names)
-                message = f"{what} at t = {t[first]:.3f} s"
-                last = first - 1
-                break
         if progress is not None and k % progress_every == 0:
             if progress(k / N, f"t = {tk:.2f} s") is False:
-                message = f"stopped by the user at t = {tk:.3f} s"
-                last = k
+                rec.message, rec.last = f"stopped by the user at t = {tk:.3f} s", k
                 break
-    loop_time = time.perf_counter() - loop_start
-    if last < 0:
-        raise SimulationError(message or "the simulation stopped before its first sample")
-    if progress is not None and not message:
-        progress(1.0, "done")
-    sl = slice(0, last + 1)
-    X, DX = controller.measure(Q[sl], DQ[sl])
-    internals = {}
-    if INT is not None:
-        for j, name in enumerate(internal_names):
-            internals[name] = INT[sl, j].copy()
-    ref_points = act_points = None
-    if getattr(controller, "point", None) is not None:
-        ref_points = controller.reference_points(QD[sl])
-        act_points = _pad3(np.array([controller.point.position(qk) for qk in Q[sl]]))
-    forces, contact_points = {}, {}
-    if FORCES is not None:
-        for j, name in enumerate(contact_names):
-            key = name if name not in forces else f"{name}{j + 1}"
-            forces[key] = FORCES[sl, j].copy()
-            contact_points[key] = _pad3(CPOS[sl, j])
-    settings = {"duration_s": f"{duration:g}", "substeps": str(substeps), "backend": plant_terms.backend}
-    if plant_params:
-        settings["plant"] = ", ".join(f"{k}={v:g}" for k, v in plant_params.items())
-    if model_params:
-        settings["model"] = ", ".join(f"{k}={v:g}" for k, v in model_params.items())
+    rec.loop_time = time.perf_counter() - loop_start
+    return rec
+
+
+def _record_contacts(rec: _Record, k: int, plant, resolved, tk, q, dq, tau, n: int) -> None:
+    text = np.zeros(n)
+    for j, f in enumerate(plant.forces(tk, q, dq, tau)):
+        rec.FORCES[k, j] = f
+        rec.CPOS[k, j] = resolved[j].point.position(q)
+        text = text + resolved[j].joint_torque(tk, q, f)
+    rec.TEXT[k] = text
+
+
+def _stop_message(exc: Exception, tk: float) -> str:
+    if isinstance(exc, np.linalg.LinAlgError):
+        return f"stopped at t = {tk:.3f} s: a singular matrix ({exc}) - a singular configuration?"
+    if isinstance(exc, FloatingPointError):
+        return f"stopped at t = {tk:.3f} s: {exc}"
+    return f"{exc} at t = {tk:.3f} s"
+
+
+def _left_bounds(s: _Setup, rec: _Record, k: int, q, dq) -> bool:
+    """Whether the state left the limits (or blew up) by sample k + 1; if so, the message and the
+    last good sample go into ``rec`` (the first bad sample is found by replaying the check on the
+    block recorded since the last check)."""
+    lo, hi = s.limits
+    args = (lo, hi, s.opts.stop_at_limits, s.opts.max_speed, s.robot.coordinates)
+    if _first_bad(q, dq, *args) is None:
+        return False
+    check_every = 10
+    j0 = k - (k % check_every)
+    first = next((j for j in range(j0, k + 1) if _first_bad(rec.Q[j], rec.DQ[j], *args) is not None), None)
+    if first is None:          # the state just reached (sample k + 1)
+        first, qs, dqs = k + 1, q, dq
+    else:
+        qs, dqs = rec.Q[first], rec.DQ[first]
+    rec.message = f"{_first_bad(qs, dqs, *args)} at t = {rec.t[first]:.3f} s"
+    rec.last = first - 1
+    return True
+
+
+def _settings(s: _Setup) -> Dict[str, str]:
+    """The run's settings as text (SimResult.settings)."""
+    opts, model, plant_terms = s.opts, s.model, s.plant_terms
+    settings = {"duration_s": f"{opts.duration:g}", "substeps": str(opts.substeps), "backend": plant_terms.backend}
+    if opts.plant_params:
+        settings["plant"] = ", ".join(f"{k}={v:g}" for k, v in opts.plant_params.items())
+    if opts.model_params:
+        settings["model"] = ", ".join(f"{k}={v:g}" for k, v in opts.model_params.items())
     differ = {k: v for k, v in model.values.items() if v != plant_terms.values[k]}
     if differ:
         settings["model_mismatch"] = ", ".join(f"{k}={v:g}" for k, v in differ.items())
-    if viscous is not None:
-        settings["viscous"] = ",".join(f"{v:g}" for v in viscous)
-    if bounds is not None:
-        settings["saturation"] = ",".join(f"{v:g}" for v in bounds)
-    if not actuated.all():
-        settings["passive"] = ",".join(c for c, a in zip(robot.coordinates, actuated) if not a)
-    if obs is not None:
-        settings["observer_KI"] = ",".join(f"{v:g}" for v in obs.K)
-    for c in resolved:
+    if s.viscous is not None:
+        settings["viscous"] = ",".join(f"{v:g}" for v in s.viscous)
+    if s.bounds is not None:
+        settings["saturation"] = ",".join(f"{v:g}" for v in s.bounds)
+    if not s.actuated.all():
+        settings["passive"] = ",".join(c for c, a in zip(s.robot.coordinates, s.actuated) if not a)
+    if s.obs is not None:
+        settings["observer_KI"] = ",".join(f"{v:g}" for v in s.obs.K)
+    for c in s.resolved:
         if c.kind == "force":
             settings[f"force_{c.name}"] = f"F={','.join(f'{v:g}' for v in c.F)} from {c.spec.start:g} s to {c.spec.end:g} s"
         else:
             settings[f"surface_{c.name}"] = (f"normal={','.join(f'{v:g}' for v in c.n)} offset={c.offset:g}"
                                              + ("" if c.kind == "rigid" else f" k={c.spec.stiffness:g} d={c.spec.damping:g}"))
+    return settings
+
+
+def _result(s: _Setup, rec: _Record, wall0: float) -> SimResult:
+    """The SimResult of a finished (or stopped) run: the samples up to ``rec.last``."""
+    controller, robot, resolved = s.controller, s.robot, s.resolved
+    sl = slice(0, rec.last + 1)
+    X, DX = controller.measure(rec.Q[sl], rec.DQ[sl])
+    internals = {}
+    if rec.INT is not None:
+        for j, name in enumerate(rec.internal_names):
+            internals[name] = rec.INT[sl, j].copy()
+    ref_points = act_points = None
+    if getattr(controller, "point", None) is not None:
+        ref_points = controller.reference_points(rec.QD[sl])
+        act_points = _pad3(np.array([controller.point.position(qk) for qk in rec.Q[sl]]))
+    forces, contact_points = {}, {}
+    if rec.FORCES is not None:
+        for j, name in enumerate(rec.contact_names):
+            key = name if name not in forces else f"{name}{j + 1}"
+            forces[key] = rec.FORCES[sl, j].copy()
+            contact_points[key] = _pad3(rec.CPOS[sl, j])
     return SimResult(
         robot=robot.name, controller=controller.name, title=controller.title, law_latex=controller.law_latex,
         gains={k: [float(x) for x in np.atleast_1d(v)] for k, v in controller.gain_arrays.items()},
-        reference=reference.describe(), coordinates=list(robot.coordinates), reference_names=list(ref_names),
-        t=t[sl].copy(), q=Q[sl].copy(), dq=DQ[sl].copy(), ddq=DDQ[sl].copy(), tau=TAU[sl].copy(),
-        ref=QD[sl].copy(), dref=DQD[sl].copy(), ddref=DDQD[sl].copy(), actual=X, dactual=DX,
+        reference=s.reference.describe(), coordinates=list(robot.coordinates), reference_names=list(s.ref_names),
+        t=rec.t[sl].copy(), q=rec.Q[sl].copy(), dq=rec.DQ[sl].copy(), ddq=rec.DDQ[sl].copy(), tau=rec.TAU[sl].copy(),
+        ref=rec.QD[sl].copy(), dref=rec.DQD[sl].copy(), ddref=rec.DDQD[sl].copy(), actual=X, dactual=DX,
         internals=internals, forces=forces, force_axes=(resolved[0].point.axes if resolved else []),
-        tau_ext=None if TEXT is None else TEXT[sl].copy(), contact_points=contact_points,
-        surfaces=[(c.name, _pad3(c.n[None, :])[0], c.offset, c.kind) for c in resolved if c.kind != "force"], task_point=getattr(getattr(controller, "point", None), "name", None),
-        ref_points=ref_points, actual_points=act_points,
-        message=message, rate=rate, wall_time=time.perf_counter() - wall0, loop_time=loop_time, settings=settings)
+        tau_ext=None if rec.TEXT is None else rec.TEXT[sl].copy(), contact_points=contact_points,
+        surfaces=[(c.name, _pad3(c.n[None, :])[0], c.offset, c.kind) for c in resolved if c.kind != "force"],
+        task_point=getattr(getattr(controller, "point", None), "name", None),
+        ref_points=ref_points, actual_points=act_points, message=rec.message, rate=s.opts.rate,
+        wall_time=time.perf_counter() - wall0, loop_time=rec.loop_time, settings=_settings(s))
 
 
 def _position_limits(robot: RobotModel) -> Tuple[np.ndarray, np.ndarray]:
@@ -669,78 +776,3 @@ def _pad3(points: np.ndarray) -> np.ndarray:
     if points.shape[1] == 3:
         return points
     return np.hstack([points, np.zeros((points.shape[0], 3 - points.shape[1]))])
-
-
-# ====================================================================== text input (command line, page)
-def parse_numbers(text: Optional[str], what: str) -> Optional[List[float]]:
-    """'0.1, -pi/4' -> [0.1, -0.785...]; None for None; a UserError names ``what`` otherwise.
-
-    >>> np.round(parse_numbers("1, pi/2", "--q0"), 6).tolist()
-    [1.0, 1.570796]
-    """
-    from .expressions import ExpressionError, parse_expression
-    if text is None:
-        return None
-    out = []
-    for part in str(text).split(","):
-        part = part.strip()
-        if not part:
-            continue
-        try:
-            out.append(float(parse_expression(part, allowed_names=())))
-        except (ExpressionError, TypeError) as exc:
-            raise SimulationError(f"{what}: '{part}' is not a number ({exc})") from None
-    if not out:
-        raise SimulationError(f"{what}: no values given")
-    return out
-
-
-def parse_assignments(text: Optional[str], what: str) -> Dict[str, float]:
-    """'m2=7, I2=0.3' -> {'m2': 7.0, 'I2': 0.3}.
-
-    >>> parse_assignments("m2=7, d2=1/2", "--plant")        # exact: 1/2 is a float
-    {'m2': 7.0, 'd2': 0.5}
-    """
-    out = {}
-    for item in (text or "").split(","):
-        item = item.strip()
-        if not item:
-            continue
-        if "=" not in item:
-            raise SimulationError(f"{what}: expected name=value, got '{item}'")
-        key, raw = (x.strip() for x in item.split("=", 1))
-        out[key] = parse_numbers(raw, f"{what} {key}")[0]
-    return out
-
-
-def parse_contact(kind: str, text: str) -> Union[PointForce, Surface]:
-    """A force ('POINT F=fx,fy [M=moment] [from=t0] [to=t1] [at=x,y,z]') or a surface ('POINT normal=nx,ny
-    [offset=o] [k=stiffness d=damping] [at=x,y,z]') from text; POINT is a named point, or a body
-    with ``at=`` its local position.
-
-    >>> parse_contact("force", "link2 F=-10,0 from=1 at=0.4,0,0")     # exact: numbers as typed
-    PointForce(point=('link2', [0.4, 0.0, 0.0]), force=[-10.0, 0.0], start=1.0, end=inf, moment=None)
-    >>> parse_contact("surface", "ee normal=0,1 k=5000")              # exact: numbers as typed
-    Surface(point='ee', normal=[0.0, 1.0], offset=None, stiffness=5000.0, damping=0.0)
-    """
-    keys = {"force": ("F", "M", "from", "to", "at"), "surface": ("normal", "offset", "k", "d", "at")}[kind]
-    parts = text.split()
-    if not parts or "=" in parts[0]:
-        raise SimulationError(f"{kind}: start with the point's name, e.g. 'ee {keys[0]}=...'")
-    point, v = parts[0], {}
-    for item in parts[1:]:
-        if "=" not in item:
-            raise SimulationError(f"{kind}: expected key=value, got '{item}'")
-        key, raw = item.split("=", 1)
-        if key not in keys:
-            raise SimulationError(f"{kind}: unknown key '{key}' (allowed: {', '.join(keys)})")
-        v[key] = parse_numbers(raw, f"{kind} {key}")
-    where = (point, v["at"]) if "at" in v else point
-    if kind == "force":
-        if "F" not in v:
-            raise SimulationError("force: give the force, e.g. F=-10,0 (newtons, world frame)")
-        return PointForce(where, v["F"], v.get("from", [0.0])[0], v.get("to", [math.inf])[0], v.get("M"))
-    if "normal" not in v:
-        raise SimulationError("surface: give the normal pointing to the free side, e.g. normal=0,1")
-    return Surface(where, v["normal"], v["offset"][0] if "offset" in v else None,
-                   v["k"][0] if "k" in v else None, v["d"][0] if "d" in v else 0.0)

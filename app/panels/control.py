@@ -15,7 +15,8 @@ import numpy as np
 from app.core.control import CONTROLLERS, coefficient_values
 from app.core.errors import UserError
 from app.core.plot_series import base_title, index_at, merge_runs, value_range, with_time_marker
-from app.core.sim import SimResult, parse_assignments, parse_contact, parse_numbers, simulate
+from app.core.sim import SimResult, simulate
+from app.core.sim_input import parse_assignments, parse_contact, parse_numbers
 from app.core.trajectories import REFERENCE_KINDS
 from app.viewer import in_worker, mathml
 
