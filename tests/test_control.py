@@ -7,9 +7,9 @@ import pytest
 from scipy.optimize import fsolve
 
 from app.core.control import CONTROLLERS, GainError, make_controller, parse_gains
-from app.core.numeric import NumericModel
+from app.core.numeric import ModelTerms, NumericModel, TaskPoint
 from app.core.robot import load_robot
-from app.core.sim import ModelTerms, PointForce, Surface, TaskPoint, simulate
+from app.core.sim import PointForce, Surface, simulate
 
 FIXTURES = Path(__file__).parent / "fixtures"
 

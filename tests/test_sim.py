@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app.core.numeric import NumericModel, random_state
+from app.core.numeric import ModelTerms, NumericModel, TaskPoint, random_state
 from app.core.robot import list_robot_names, load_robot
-from app.core.sim import ModelTerms, PointForce, SimulationError, Surface, TaskPoint, simulate
+from app.core.sim import PointForce, SimulationError, Surface, simulate
 from app.core.trajectories import MinimumTime, Polynomial, Sinusoid, TrajectoryError, parse_reference
 
 FIXTURES = Path(__file__).parent / "fixtures"

@@ -55,9 +55,9 @@ class Gain:
 
 @dataclass
 class ControlSetup:
-    """What a controller may know: the robot, its own model (``model``: sim.ModelTerms at the
+    """What a controller may know: the robot, its own model (``model``: numeric.ModelTerms at the
     controller's parameter values), the control period, which joints are actuated, the initial
-    state, task points (``make_point(name)`` -> sim.TaskPoint), the surfaces in the scene
+    state, task points (``make_point(name)`` -> numeric.TaskPoint), the surfaces in the scene
     ((name, kind, normal, offset) tuples, kind 'rigid' or 'wall') and a force sensor
     (``read_force(point_name)`` -> force on the robot at that point, or None)."""
     robot: object

@@ -74,7 +74,8 @@ def check_parameter(name: str, kind: str, value) -> float:
         raise ParameterError(f"{name}: expected a number, got {excerpt(value, 30)}")
     if not math.isfinite(value):
         raise ParameterError(f"{name}: expected a finite number, got {value!r}")
-    refusal = refuse_negative(f"{'an' if kind[0] in 'aeiou' else 'a'} {kind}", value) if kind in NON_NEGATIVE_KINDS else ""
+    article = "an" if kind[0] in "aeiou" else "a"
+    refusal = refuse_negative(f"{article} {kind}", value) if kind in NON_NEGATIVE_KINDS else ""
     if refusal:
         raise ParameterError(f"{name}: {refusal}")
     return float(value)

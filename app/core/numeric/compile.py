@@ -1,7 +1,7 @@
 """The one way from a sympy expression to a numeric function in the lab.
 
-``numeric_function`` is the only call of ``sympy.lambdify`` in ``app/`` (tests/test_architecture.py checks
-it): every compiled function goes through here, so how expressions are compiled (modules, common
+``numeric_function`` is the only call of ``sympy.lambdify`` in ``app/`` (tests/test_architecture.py
+checks it): every compiled function goes through here, so how expressions are compiled (modules, common
 subexpression elimination) is decided in one place. Functions worth keeping are kept by the
 robot's compiled model (``app.core.numeric.model.CompiledModel``), never in module-level caches of
 other modules.
