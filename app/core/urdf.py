@@ -36,6 +36,7 @@ import numpy as np
 import sympy as sp
 
 from .errors import UserError
+from .robot_model import refuse_negative
 
 if TYPE_CHECKING:       # robot.py reads URDF files through this module
     from .robot import RobotModel
@@ -482,8 +483,9 @@ class _Reader:
         where = f"link '{link}' inertial"
         mass_el = element.find("mass")
         mass = 0.0 if mass_el is None else float(self.numbers(mass_el.get("value"), 1, f"{where} mass")[0])
-        if mass < 0:
-            raise self.fail(f"{where}: a mass must not be negative (got {mass:g})")
+        refusal = refuse_negative("a mass", mass)
+        if refusal:
+            raise self.fail(f"{where}: {refusal}")
         T = self.origin(element, where)
         tensor = element.find("inertia")
         entries = {}
@@ -559,8 +561,9 @@ class _Reader:
             ident = self.identifiers[self.attr(joint, "child", "link", where)]
             for key, kind_name, prefix in (("damping", "viscous", "fv"), ("friction", "coulomb", "fc")):
                 value = float(self.numbers(dynamics.get(key, "0"), 1, f"{where} dynamics {key}")[0])
-                if value < 0:
-                    raise self.fail(f"{where}: dynamics {key} must not be negative")
+                refusal = refuse_negative(f"dynamics {key}", value, shown=f"got {value:g}")
+                if refusal:
+                    raise self.fail(f"{where}: {refusal}")
                 if value > 0:
                     self.data["friction"][kind_name][q] = self.parameter(f"{prefix}_{ident}", value, "friction", "")
         return q
