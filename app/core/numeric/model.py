@@ -326,8 +326,11 @@ def friction(model: CompiledModel, ws: Workspace, dq) -> np.ndarray:
 
 def bias(model: CompiledModel, ws: Workspace, q, dq) -> np.ndarray:
     """c + g + k + friction: everything but M q''."""
-    return (coriolis_matrix(model, ws, q, dq) @ _vec(dq, model.n) + gravity(model, ws, q)
-            + spring(model, ws, q) + friction(model, ws, dq))
+    n, p = model.n, ws.p
+    q, dq = _vec(q, n), _vec(dq, n)
+    return (np.asarray(model.fC(q, dq, p), dtype=float).reshape(n, n) @ dq
+            + np.asarray(model.fg(q, p), dtype=float).reshape(n) + np.asarray(model.fk(q, p), dtype=float).reshape(n)
+            + np.asarray(model.ffr(dq, p), dtype=float).reshape(n))
 
 
 def inverse_dynamics(model: CompiledModel, ws: Workspace, q, dq, ddq) -> np.ndarray:
@@ -388,7 +391,8 @@ class NumericModel:
         return _vec(q, self.n)
 
     def M(self, q) -> np.ndarray:
-        return mass_matrix(self.model, self.ws, q)
+        n = self.n
+        return np.asarray(self.model.fM(_vec(q, n), self.ws.p), dtype=float).reshape(n, n)
 
     def C(self, q, dq) -> np.ndarray:
         return coriolis_matrix(self.model, self.ws, q, dq)
