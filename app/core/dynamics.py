@@ -242,6 +242,8 @@ def forget_derivations() -> None:
         _memory.clear()
     compact.forget()
     steps.forget()
+    from .numeric import forget_compiled        # here: the numeric package imports this module
+    forget_compiled()                           # the compiled models hold their robot's derivation
 
 
 class _Deriver:
