@@ -131,7 +131,9 @@ def test_check_my_answer_in_the_exercises_tab(lab, browser):
 
 
 # ====================================================================== presenter mode
+# font size and height of the first visible formula in CSS px ([0, 0] while none is on display)
 MATH_PX = "() => { const e = [...document.querySelectorAll('.r2-math math')].find(m => m.offsetParent !== null);" \
+          " if (!e) return [0, 0];" \
           " return [parseFloat(getComputedStyle(e).fontSize), e.getBoundingClientRect().height]; }"
 LABEL_PX = "() => parseFloat(getComputedStyle([...document.querySelectorAll('label')].find(l => l.offsetParent !== null))" \
            ".fontSize)"
@@ -160,6 +162,7 @@ def test_presenter_mode_at_150_percent(lab, browser, tmp_path):
     try:
         page.locator('.r2-model[data-robot="planar_3r"]').wait_for(state="attached")
         shots.hide_notifications(page)
+        shots.wait_until(lambda: page.evaluate(MATH_PX)[0] > 0, 10, "the math on display")
         math_off, height_off = page.evaluate(MATH_PX)
         label_off = page.evaluate(LABEL_PX)
         assert math_off < 18.0
@@ -200,6 +203,7 @@ def test_presenter_mode_stays_on_through_a_robot_switch_in_its_own_tab_only(lab,
     page, session = open_page(lab, browser, "robot=planar_3r&tab=model", "planar_3r", width=853, height=533, scale=1.5)
     try:
         page.locator('.r2-model[data-robot="planar_3r"]').wait_for(state="attached")
+        shots.wait_until(lambda: page.evaluate(MATH_PX)[0] > 0, 10, "the math on display")
         math_off = page.evaluate(MATH_PX)[0]
         session.presenter.set(True)
         assert session.presenter.switch.value is True
@@ -214,6 +218,7 @@ def test_presenter_mode_stays_on_through_a_robot_switch_in_its_own_tab_only(lab,
                                          height=533, scale=1.5)
         try:
             other.locator('.r2-model[data-robot="planar_3r"]').wait_for(state="attached")
+            shots.wait_until(lambda: other.evaluate(MATH_PX)[0] > 0, 10, "the math on display in the other tab")
             assert other.evaluate(MATH_PX)[0] == pytest.approx(math_off, abs=0.1)
             assert other.locator(".r2-presenter").count() == 0 and not other_session.presenter.on
         finally:
