@@ -1,7 +1,8 @@
 """The real page in headless Chromium (Debian's /usr/bin/chromium through Playwright).
 
-One lab server and one browser serve the whole run (tests/conftest.py); every test opens its own browser context
-(an independent tab with its own session)."""
+One lab server and one browser serve the whole run (tests/conftest.py). The tests of one robot's page share a
+tab (``shared_tab``) and load their robot anew in it, as a user picking it again would (a new tab costs about
+4 s of CPU in software WebGL); the tests of the picker and of two tabs open their own."""
 import colorsys
 import time
 
@@ -15,6 +16,26 @@ from app.viewer import screenshot as shots
 def open_tab(lab, browser, robot="planar_2r", hide=True):
     """A new browser tab showing ``robot``; returns (page, its server-side session)."""
     page, session = shots.open_tab(lab, browser, robot, hide=hide)
+    shots.settle(page, 0.8)
+    return page, session
+
+
+@pytest.fixture(scope="module")
+def shared_tab(lab, browser):
+    """One tab for the tests below that start from a freshly loaded robot: (page, session)."""
+    page, session = shots.open_tab(lab, browser, "planar_2r", hide=False)
+    yield page, session
+    page.context.close()
+
+
+def fresh(shared_tab, robot, hide=True):
+    """The shared tab with ``robot`` loaded anew (default q and parameters, panels rebuilt), its
+    notifications hidden or shown."""
+    page, session = shared_tab
+    if shots.field(page, "Group").input_value() != "All robots":     # the whole list, as on a new tab
+        choose(page, "Group", "All robots")
+    shots.reload_robot(page, session, robot)
+    (shots.hide_notifications if hide else shots.show_notifications)(page)
     shots.settle(page, 0.8)
     return page, session
 
@@ -78,53 +99,47 @@ def assert_robot_drawn(page, session):
 
 
 @pytest.mark.parametrize("robot", ["planar_2r", "rp_2004_03_25", "polar_2r_2016_06_06", "throwing_arm"])
-def test_robot_drawn_and_follows_slider(lab, browser, robot):
-    page, session = open_tab(lab, browser, robot)
-    try:
-        before = assert_robot_drawn(page, session)
-        q_before = session.q.copy()
-        thumb = shots.slider_thumb(page, session.robot.coordinates[0])
-        thumb.focus()
-        thumb.press("End")            # q1 to the top of its range, as a user would
-        wait_until(lambda: session.q[0] != q_before[0], what="q1 to change")
-        lo, hi = session.ranges[session.robot.coordinates[0]]
-        assert session.q[0] == pytest.approx(hi, abs=1e-3)
-        shots.settle(page, 1.0)
-        after = assert_robot_drawn(page, session)
-        canvas = np.s_[:, : after.shape[1] - 420]
-        changed = np.mean(np.any(np.abs(after[canvas].astype(int) - before[canvas].astype(int)) > 30, axis=2))
-        assert changed > 0.002, f"picture barely changed ({changed:.4f})"
-    finally:
-        page.context.close()
+def test_robot_drawn_and_follows_slider(shared_tab, robot):
+    page, session = fresh(shared_tab, robot)
+    before = assert_robot_drawn(page, session)
+    q_before = session.q.copy()
+    thumb = shots.slider_thumb(page, session.robot.coordinates[0])
+    thumb.focus()
+    thumb.press("End")            # q1 to the top of its range, as a user would
+    wait_until(lambda: session.q[0] != q_before[0], what="q1 to change")
+    lo, hi = session.ranges[session.robot.coordinates[0]]
+    assert session.q[0] == pytest.approx(hi, abs=1e-3)
+    shots.settle(page, 1.0)
+    after = assert_robot_drawn(page, session)
+    canvas = np.s_[:, : after.shape[1] - 420]
+    changed = np.mean(np.any(np.abs(after[canvas].astype(int) - before[canvas].astype(int)) > 30, axis=2))
+    assert changed > 0.002, f"picture barely changed ({changed:.4f})"
 
 
-def test_model_panel_shows_typeset_math_and_values(lab, browser):
-    page, session = open_tab(lab, browser, "planar_2r")
-    try:
-        shots.select_tab(page, "Model")
-        page.wait_for_selector(".r2-math math", state="visible")
-        boxes = page.evaluate("""() => [...document.querySelectorAll('.r2-math math')]
-            .map(m => m.getBoundingClientRect()).filter(r => r.width > 0 && r.height > 0).length""")
-        assert boxes >= 4
-        assert page.evaluate("() => document.fonts.check(\"16px 'STIX Two Math'\")")
-        # the matrix of M(q) has stretchy brackets: its fence is taller than a line of text
-        fence = page.evaluate("""() => { const mo = [...document.querySelectorAll('.r2-math mo[stretchy=true]')]
-            .map(e => e.getBoundingClientRect().height); return Math.max(...mo); }""")
-        assert fence > 30
-        first = page.locator(".r2-num").first
-        text_before = first.inner_text()
-        thumb = shots.slider_thumb(page, "q2")
-        thumb.focus()
-        thumb.press("End")
-        wait_until(lambda: first.inner_text() != text_before, what="numeric M to change with q2")
-        M = session.numeric.M(session.q)
-        assert f"{M[0, 0]:.4g}" in first.inner_text().replace("\n", " ")
-        with page.expect_download() as download:          # the model as a LaTeX fragment
-            page.get_by_role("button", name="Download the model (LaTeX)").click()
-        tex = open(download.value.path(), encoding="utf-8").read()
-        assert tex.startswith("% Dynamic model of Planar 2R") and "m_{22} = I_{2} + d_{2}^{2} m_{2}" in tex
-    finally:
-        page.context.close()
+def test_model_panel_shows_typeset_math_and_values(shared_tab):
+    page, session = fresh(shared_tab, "planar_2r")
+    shots.select_tab(page, "Model")
+    page.wait_for_selector(".r2-math math", state="visible")
+    boxes = page.evaluate("""() => [...document.querySelectorAll('.r2-math math')]
+        .map(m => m.getBoundingClientRect()).filter(r => r.width > 0 && r.height > 0).length""")
+    assert boxes >= 4
+    assert page.evaluate("() => document.fonts.check(\"16px 'STIX Two Math'\")")
+    # the matrix of M(q) has stretchy brackets: its fence is taller than a line of text
+    fence = page.evaluate("""() => { const mo = [...document.querySelectorAll('.r2-math mo[stretchy=true]')]
+        .map(e => e.getBoundingClientRect().height); return Math.max(...mo); }""")
+    assert fence > 30
+    first = page.locator(".r2-num").first
+    text_before = first.inner_text()
+    thumb = shots.slider_thumb(page, "q2")
+    thumb.focus()
+    thumb.press("End")
+    wait_until(lambda: first.inner_text() != text_before, what="numeric M to change with q2")
+    M = session.numeric.M(session.q)
+    assert f"{M[0, 0]:.4g}" in first.inner_text().replace("\n", " ")
+    with page.expect_download() as download:          # the model as a LaTeX fragment
+        page.get_by_role("button", name="Download the model (LaTeX)").click()
+    tex = open(download.value.path(), encoding="utf-8").read()
+    assert tex.startswith("% Dynamic model of Planar 2R") and "m_{22} = I_{2} + d_{2}^{2} m_{2}" in tex
 
 
 def choose(page, label, option):
@@ -133,30 +148,27 @@ def choose(page, label, option):
     page.get_by_role("option", name=option, exact=True).click()
 
 
-def test_picking_another_robot_replaces_the_scene(lab, browser):
-    page, session = open_tab(lab, browser, "planar_2r")
-    try:
-        nodes = shots.scene_node_names(page)
-        assert any(n.endswith("/link2__joint/joint") for n in nodes) and not any("sleeve" in n for n in nodes)
-        choose(page, "Robot", "RP · Planar RP, prismatic axis across link 1 (exam 2004-03-25)")
-        shots.wait_ready(page, "rp_2004_03_25")
-        assert session.robot_name == "rp_2004_03_25"
-        wait_until(lambda: any(n.endswith("/link2__joint/sleeve") for n in shots.scene_node_names(page)), what="the RP scene")
-        nodes = shots.scene_node_names(page)
-        assert not any(n.endswith("/link2__joint/joint") for n in nodes)   # the 2R's revolute joint 2 is gone
-        assert page.get_by_role("tab", name="Model").count() == 1
-        shots.settle(page, 1.0)
-        assert_robot_drawn(page, session)
-        choose(page, "Group", "Throwing arm")              # a group narrows the list ...
-        choose(page, "Robot", "3R · Throwing arm (KUKA LWR 4+ joints 2, 3, 5; passive spring wrist)")   # ... a robot loads
-        shots.wait_ready(page, "throwing_arm")
-        assert [s.name for s in session.robot.bodies] == ["link1", "link2", "link3"]
-    finally:
-        page.context.close()
+def test_picking_another_robot_replaces_the_scene(shared_tab):
+    page, session = fresh(shared_tab, "planar_2r")
+    nodes = shots.scene_node_names(page)
+    assert any(n.endswith("/link2__joint/joint") for n in nodes) and not any("sleeve" in n for n in nodes)
+    choose(page, "Robot", "RP · Planar RP, prismatic axis across link 1 (exam 2004-03-25)")
+    shots.wait_ready(page, "rp_2004_03_25")
+    assert session.robot_name == "rp_2004_03_25"
+    wait_until(lambda: any(n.endswith("/link2__joint/sleeve") for n in shots.scene_node_names(page)), what="the RP scene")
+    nodes = shots.scene_node_names(page)
+    assert not any(n.endswith("/link2__joint/joint") for n in nodes)   # the 2R's revolute joint 2 is gone
+    assert page.get_by_role("tab", name="Model").count() == 1
+    shots.settle(page, 1.0)
+    assert_robot_drawn(page, session)
+    choose(page, "Group", "Throwing arm")              # a group narrows the list ...
+    choose(page, "Robot", "3R · Throwing arm (KUKA LWR 4+ joints 2, 3, 5; passive spring wrist)")   # ... a robot loads
+    shots.wait_ready(page, "throwing_arm")
+    assert [s.name for s in session.robot.bodies] == ["link1", "link2", "link3"]
 
 
-def test_two_tabs_keep_independent_state(lab, browser):
-    page_a, session_a = open_tab(lab, browser, "planar_2r")
+def test_two_tabs_keep_independent_state(lab, browser, shared_tab):
+    page_a, session_a = fresh(shared_tab, "planar_2r")
     page_b, session_b = open_tab(lab, browser, "planar_2r")
     try:
         assert session_a is not session_b
@@ -171,30 +183,27 @@ def test_two_tabs_keep_independent_state(lab, browser):
         assert page_b.get_by_text("Planar 2R arm (vertical plane)").count() >= 1
         assert shots.field(page_a, "q1").input_value() == "0"
     finally:
-        page_a.context.close()
         page_b.context.close()
 
 
 @pytest.mark.parametrize("typed, message", [("-3", "must not be negative"), ("", "empty value"),
                                              ("heavy", "is not a number")])
-def test_bad_parameter_is_refused_with_a_message(lab, browser, typed, message):
-    page, session = open_tab(lab, browser, "planar_2r", hide=False)
-    try:
+def test_bad_parameter_is_refused_with_a_message(shared_tab, typed, message):
+    page, session = fresh(shared_tab, "planar_2r", hide=False)
+    box = shots.field(page, "m1 [kg]")
+    if not box.is_visible():                          # the folder is closed: open it
         page.get_by_text("Parameters", exact=True).click()
-        box = shots.field(page, "m1 [kg]")
-        box.click()
-        box.press("Control+a")
-        box.press("Backspace")
-        if typed:
-            page.keyboard.type(typed)
-        page.get_by_text(message).first.wait_for(timeout=10000)
-        wait_until(lambda: box.input_value() == "10", what="the last good value back in the field")
-        assert session.params["m1"] == pytest.approx(10, abs=1e-12) and session.numeric.values["m1"] == pytest.approx(10, abs=1e-12)
-        # the page keeps working: a good value goes through to the model
-        box.click()
-        box.press("Control+a")
-        page.keyboard.type("12")
-        wait_until(lambda: session.numeric.values["m1"] == pytest.approx(12.0, abs=1e-12), what="m1 = 12 in the model")
-        wait_until(lambda: "pinocchio agrees" in page.locator(".r2-badge").inner_text(), what="the check badge")
-    finally:
-        page.context.close()
+    box.click()
+    box.press("Control+a")
+    box.press("Backspace")
+    if typed:
+        page.keyboard.type(typed)
+    page.get_by_text(message).first.wait_for(timeout=10000)
+    wait_until(lambda: box.input_value() == "10", what="the last good value back in the field")
+    assert session.params["m1"] == pytest.approx(10, abs=1e-12) and session.numeric.values["m1"] == pytest.approx(10, abs=1e-12)
+    # the page keeps working: a good value goes through to the model
+    box.click()
+    box.press("Control+a")
+    page.keyboard.type("12")
+    wait_until(lambda: session.numeric.values["m1"] == pytest.approx(12.0, abs=1e-12), what="m1 = 12 in the model")
+    wait_until(lambda: "pinocchio agrees" in page.locator(".r2-badge").inner_text(), what="the check badge")

@@ -376,7 +376,8 @@ class Session:
             self.params = robot.parameter_values()
             self.q = default_q(robot)
             with self.client.atomic():
-                self._status.content = f'<span class="r2-status" data-ready="0" data-robot="{name}"></span>'
+                self._status.content = (f'<span class="r2-status" data-ready="0" data-robot="{name}" '
+                                        f'data-generation="{generation}"></span>')
                 self._info.content = self._info_html(robot)
                 self._badge.content = self._badge_html("pending", "pinocchio cross-check: waiting for the model")
                 self.scene.clear_overlays()
@@ -426,7 +427,8 @@ class Session:
         with self._lock:
             if generation != self.generation:
                 return
-            self._status.content = f'<span class="r2-status" data-ready="1" data-robot="{self.robot_name}"></span>'
+            self._status.content = (f'<span class="r2-status" data-ready="1" data-robot="{self.robot_name}" '
+                                    f'data-generation="{generation}"></span>')
             self.ready.set()
         self._check_job.request()
 
