@@ -2,7 +2,10 @@
 picker, the page's address, and a seeded walk that checks the page after every action.
 
 Each of the ten defects of issue 11 has its test here (named after it); all share the suite's
-server and Chromium (tests/conftest.py), every test in its own browser context (tab)."""
+server and Chromium (tests/conftest.py). The tests that start from a robot picked in the page share
+one tab (``shared_tab``) and load their robot anew in it (a new tab costs about 4 s of CPU in
+software WebGL); the tests of the page's address, of a reload, of the picker's list and the walk
+open their own tabs."""
 import time
 
 import numpy as np
@@ -22,6 +25,28 @@ def open_page(lab, browser, query, robot):
     page.r2_errors = errors
     shots.wait_ready(page, robot)
     session = shots.new_session(lab, before)
+    return page, session
+
+
+@pytest.fixture(scope="module")
+def shared_tab(lab, browser):
+    """One tab for the tests that start from a freshly loaded robot: (page, session)."""
+    page, session = open_page(lab, browser, "robot=planar_2r", "planar_2r")
+    yield page, session
+    page.context.close()
+
+
+def fresh(shared_tab, robot, tab=None):
+    """The shared tab with ``robot`` loaded anew (default q and parameters, panels rebuilt), the
+    panel tab ``tab`` on display, no notification and no page error left from the test before."""
+    page, session = shared_tab
+    page.evaluate("() => document.querySelectorAll('.mantine-Notification-root button').forEach(b => b.click())")
+    shots.wait_until(lambda: not notifications(page), 10, "the earlier notifications to close")
+    shots.reload_robot(page, session, robot)
+    session.ready.wait(60)
+    if tab:
+        shots.select_tab(page, tab)
+    page.r2_errors.clear()
     return page, session
 
 
@@ -50,62 +75,53 @@ def notifications(page):
 
 
 # ====================================================================== the ten defects
-def test_links_stay_on_their_joints_after_robot_switches(lab, browser):
+def test_links_stay_on_their_joints_after_robot_switches(shared_tab):
     """Defect 1: a robot drawn after another kept the previous robot's node poses in the browser."""
-    page, session = open_page(lab, browser, "robot=cartesian_pp_payload", "cartesian_pp_payload")
-    try:
+    page, session = fresh(shared_tab, "cartesian_pp_payload")
+    assert_drawn_right(page, session)
+    for name in ("rp_2004_03_25", "throwing_arm", "catching_arm", "elastic_2r"):
+        pick(page, session, name)
         assert_drawn_right(page, session)
-        for name in ("rp_2004_03_25", "throwing_arm", "catching_arm", "elastic_2r"):
-            pick(page, session, name)
-            assert_drawn_right(page, session)
-        # the elastic 2R's ghost (the control reference) sits on the robot too
-        session.scene.ghost(session.q, "check")
-        root = session.scene._ghosts["check"][1][""].name
-        shots.wait_until(lambda: page.evaluate(walk._FRAMES_JS, [f"{root}/link1"])[f"{root}/link1"] is not None, 5,
-                         "the ghost")
-        ghost = walk._matrix(page.evaluate(walk._FRAMES_JS, [f"{root}/link1"])[f"{root}/link1"])
-        assert np.allclose(ghost, session.drawing.poses(session.q)["link1"], atol=1e-9)
-    finally:
-        page.context.close()
+    # the elastic 2R's ghost (the control reference) sits on the robot too
+    session.scene.ghost(session.q, "check")
+    root = session.scene._ghosts["check"][1][""].name
+    shots.wait_until(lambda: page.evaluate(walk._FRAMES_JS, [f"{root}/link1"])[f"{root}/link1"] is not None, 5,
+                     "the ghost")
+    ghost = walk._matrix(page.evaluate(walk._FRAMES_JS, [f"{root}/link1"])[f"{root}/link1"])
+    assert np.allclose(ghost, session.drawing.poses(session.q)["link1"], atol=1e-9)
 
 
-def test_steps_next_and_previous_work_before_a_step_is_picked(lab, browser):
+def test_steps_next_and_previous_work_before_a_step_is_picked(shared_tab):
     """Defect 2: Next and Previous raised KeyError 'index' until a step was picked."""
-    page, session = open_page(lab, browser, "robot=planar_2r&tab=steps", "planar_2r")
-    try:
-        with walk.ServerLog() as log:
-            page.get_by_role("button", name="Next ▶").first.click()
-            page.locator('.r2-step[data-step="1"]').wait_for(state="attached", timeout=5000)
-            page.get_by_role("button", name="Next ▶").first.click()
-            page.locator('.r2-step[data-step="2"]').wait_for(state="attached", timeout=5000)
-            page.get_by_role("button", name="◀ Previous").first.click()
-            page.locator('.r2-step[data-step="1"]').wait_for(state="attached", timeout=5000)
-        assert log.errors() == []
-    finally:
-        page.context.close()
+    page, session = fresh(shared_tab, "planar_2r", "Steps")
+    with walk.ServerLog() as log:
+        page.get_by_role("button", name="Next ▶").first.click()
+        page.locator('.r2-step[data-step="1"]').wait_for(state="attached", timeout=5000)
+        page.get_by_role("button", name="Next ▶").first.click()
+        page.locator('.r2-step[data-step="2"]').wait_for(state="attached", timeout=5000)
+        page.get_by_role("button", name="◀ Previous").first.click()
+        page.locator('.r2-step[data-step="1"]').wait_for(state="attached", timeout=5000)
+    assert log.errors() == []
 
 
-def test_switching_robot_after_a_run_leaves_no_stale_pose(lab, browser):
+def test_switching_robot_after_a_run_leaves_no_stale_pose(shared_tab):
     """Defect 3: after a run drew the 2R bent, the next robot (at q = 0) was drawn with the 2R's
     link poses until a slider moved."""
-    page, session = open_page(lab, browser, "robot=planar_2r&tab=control", "planar_2r")
-    try:
-        panel = session.state["control"]["panel"]
-        panel.configure("pd_gravity", reference="setpoint by=1.2,-1.5", duration=1.0)
-        panel.run(wait=True)
-        panel.show_time(1.0)                          # the 2R drawn bent
-        assert np.max(np.abs(session.scene.q)) > 0.5
-        pick(page, session, "dh_twist_rr")
-        assert np.allclose(session.scene.q, session.q)
-        assert_drawn_right(page, session)
-        pick(page, session, "planar_2r")
-        assert np.allclose(session.q, 0.0) and np.allclose(session.scene.q, 0.0)
-        assert_drawn_right(page, session)
-    finally:
-        page.context.close()
+    page, session = fresh(shared_tab, "planar_2r", "Control")
+    panel = session.state["control"]["panel"]
+    panel.configure("pd_gravity", reference="setpoint by=1.2,-1.5", duration=1.0)
+    panel.run(wait=True)
+    panel.show_time(1.0)                          # the 2R drawn bent
+    assert np.max(np.abs(session.scene.q)) > 0.5
+    pick(page, session, "dh_twist_rr")
+    assert np.allclose(session.scene.q, session.q)
+    assert_drawn_right(page, session)
+    pick(page, session, "planar_2r")
+    assert np.allclose(session.q, 0.0) and np.allclose(session.scene.q, 0.0)
+    assert_drawn_right(page, session)
 
 
-def test_model_tab_never_shows_the_previous_robots_matrices(lab, browser, monkeypatch):
+def test_model_tab_never_shows_the_previous_robots_matrices(shared_tab, monkeypatch):
     """Defect 4: while a new robot's model was derived, the Model tab kept the previous M(q)."""
     import app.viewer.session as session_module
     real = session_module.derive
@@ -114,38 +130,32 @@ def test_model_tab_never_shows_the_previous_robots_matrices(lab, browser, monkey
         time.sleep(6.0)                               # a cold derivation, as for a new spatial robot
         return real(robot, progress=progress)
 
-    page, session = open_page(lab, browser, "robot=planar_2r&tab=model", "planar_2r")
-    try:
-        page.locator('.r2-model[data-robot="planar_2r"]').wait_for(state="attached")
-        monkeypatch.setattr(session_module, "derive", slow)
-        session.load_robot("rp_2004_03_25")
-        page.locator('.r2-status[data-robot="rp_2004_03_25"]').wait_for(state="attached")
-        page.get_by_text("Deriving the model of").first.wait_for()
-        assert session.dynamics is None                      # still deriving, and meanwhile ...
-        assert page.locator('.r2-model[data-robot="planar_2r"]').count() == 0   # no 2R matrices under the RP
-        shots.wait_ready(page, "rp_2004_03_25")
-        assert header_violations(page, session) == []
-        assert page.locator('.r2-model[data-robot="rp_2004_03_25"]').count() == 1
-    finally:
-        page.context.close()
+    page, session = fresh(shared_tab, "planar_2r", "Model")
+    page.locator('.r2-model[data-robot="planar_2r"]').wait_for(state="attached")
+    monkeypatch.setattr(session_module, "derive", slow)
+    session.load_robot("rp_2004_03_25")
+    page.locator('.r2-status[data-robot="rp_2004_03_25"]').wait_for(state="attached")
+    page.get_by_text("Deriving the model of").first.wait_for()
+    assert session.dynamics is None                      # still deriving, and meanwhile ...
+    assert page.locator('.r2-model[data-robot="planar_2r"]').count() == 0   # no 2R matrices under the RP
+    shots.wait_ready(page, "rp_2004_03_25")
+    assert header_violations(page, session) == []
+    assert page.locator('.r2-model[data-robot="rp_2004_03_25"]').count() == 1
 
 
-def test_switching_controller_clears_the_previous_run(lab, browser):
+def test_switching_controller_clears_the_previous_run(shared_tab):
     """Defect 5: the previous controller's plots and status stayed after switching controller."""
-    page, session = open_page(lab, browser, "robot=planar_2r&tab=control", "planar_2r")
-    try:
-        panel = session.state["control"]["panel"]
-        panel.configure("computed_torque", reference="quintic by=0.3 T=0.5", mismatch="m2=3", duration=0.5)
-        panel.run(wait=True)
-        page.get_by_text("completed").first.wait_for()
-        assert page.locator(".uplot").count() >= 2
-        shots.field(page, "Controller").click()
-        page.get_by_role("option", name="PD + on-line gravity compensation g(q)", exact=True).click()
-        shots.wait_until(lambda: panel.result is None, 5, "the run to be cleared")
-        page.wait_for_function("() => document.querySelectorAll('.uplot').length === 0", timeout=5000)
-        assert "completed" not in page.inner_text("body") and "m2=3" not in page.inner_text("body")
-    finally:
-        page.context.close()
+    page, session = fresh(shared_tab, "planar_2r", "Control")
+    panel = session.state["control"]["panel"]
+    panel.configure("computed_torque", reference="quintic by=0.3 T=0.5", mismatch="m2=3", duration=0.5)
+    panel.run(wait=True)
+    page.get_by_text("completed").first.wait_for()
+    assert page.locator(".uplot").count() >= 2
+    shots.field(page, "Controller").click()
+    page.get_by_role("option", name="PD + on-line gravity compensation g(q)", exact=True).click()
+    shots.wait_until(lambda: panel.result is None, 5, "the run to be cleared")
+    page.wait_for_function("() => document.querySelectorAll('.uplot').length === 0", timeout=5000)
+    assert "completed" not in page.inner_text("body") and "m2=3" not in page.inner_text("body")
 
 
 def test_reload_cancels_the_run_and_restores_the_page(lab, browser):
@@ -174,70 +184,62 @@ def test_reload_cancels_the_run_and_restores_the_page(lab, browser):
         page.context.close()
 
 
-def test_pinocchio_badge_compares_relatively(lab, browser):
+def test_pinocchio_badge_compares_relatively(shared_tab):
     """Defect 7: at m1 = 1e9 the badge said "disagrees" for a round-off of 4.5e-7 (absolute)."""
-    page, session = open_page(lab, browser, "robot=planar_2r", "planar_2r")
-    try:
-        page.locator('.r2-badge[data-state="ok"]').wait_for(state="attached", timeout=60000)
-        walk.type_text(walk.parameter_box(page, session, "m1"), "1e9")
-        shots.wait_until(lambda: session.params["m1"] == pytest.approx(1e9, rel=1e-12), 5, "m1 = 1e9")
-        shots.wait_until(lambda: session.numeric.values["m1"] == pytest.approx(1e9, rel=1e-12), 5, "the model")
-        # the badge of a cross-check of m1 = 1e9 (the one before the change may still be shown)
-        shots.wait_until(lambda: session.checked_values.get("m1") == pytest.approx(1e9, rel=1e-12), 30,
-                         "a cross-check of m1 = 1e9")
-        page.wait_for_function("(n) => { const b = document.querySelector('.r2-badge');"
-                               " return +b.dataset.check >= n && b.dataset.state !== 'pending'; }",
-                               arg=session.checks, timeout=60000)
-        assert page.locator('.r2-badge[data-state="ok"]').count() == 1, page.locator(".r2-badge").inner_text()
-    finally:
-        page.context.close()
+    page, session = fresh(shared_tab, "planar_2r")
+    page.locator('.r2-badge[data-state="ok"]').wait_for(state="attached", timeout=60000)
+    walk.type_text(walk.parameter_box(page, session, "m1"), "1e9")
+    shots.wait_until(lambda: session.params["m1"] == pytest.approx(1e9, rel=1e-12), 5, "m1 = 1e9")
+    shots.wait_until(lambda: session.numeric.values["m1"] == pytest.approx(1e9, rel=1e-12), 5, "the model")
+    # the badge of a cross-check of m1 = 1e9 (the one before the change may still be shown)
+    shots.wait_until(lambda: session.checked_values.get("m1") == pytest.approx(1e9, rel=1e-12), 30,
+                     "a cross-check of m1 = 1e9")
+    page.wait_for_function("(n) => { const b = document.querySelector('.r2-badge');"
+                           " return +b.dataset.check >= n && b.dataset.state !== 'pending'; }",
+                           arg=session.checks, timeout=60000)
+    assert page.locator('.r2-badge[data-state="ok"]').count() == 1, page.locator(".r2-badge").inner_text()
 
 
-def test_elastic_2r_control_opens_on_a_controller_that_runs(lab, browser):
+def test_elastic_2r_control_opens_on_a_controller_that_runs(shared_tab):
     """Defect 8: the elastic 2R's Control tab opened on computed torque (kept from the previous
     robot), which refused to run with a command-line hint."""
-    page, session = open_page(lab, browser, "robot=planar_2r&tab=control", "planar_2r")
-    try:
-        assert session.state["control"]["panel"]._name() == "computed_torque"
-        pick(page, session, "elastic_2r")
-        panel = session.state["control"]["panel"]
-        assert panel._name().startswith("elastic")
-        panel.duration.value = 0.3
-        panel.run(wait=True)
-        assert panel.result is not None and panel.result.completed
-        assert "--passive" not in page.inner_text("body")
-    finally:
-        page.context.close()
+    page, session = fresh(shared_tab, "planar_2r", "Control")
+    session.state["control"]["panel"].configure("computed_torque")    # the rigid 2R's controller before the switch
+    assert session.state["control"]["panel"]._name() == "computed_torque"
+    pick(page, session, "elastic_2r")
+    panel = session.state["control"]["panel"]
+    assert panel._name().startswith("elastic")
+    panel.duration.value = 0.3
+    panel.run(wait=True)
+    assert panel.result is not None and panel.result.completed
+    assert "--passive" not in page.inner_text("body")
 
 
-def test_number_fields_take_the_value_when_typing_pauses(lab, browser):
+def test_number_fields_take_the_value_when_typing_pauses(shared_tab):
     """Defect 9: '1e9' typed into the throw studio's spring became 19, with a notification per
     key; negative lengths were accepted in Parameters and exercise variants."""
-    page, session = open_page(lab, browser, "robot=planar_2r", "planar_2r")
+    page, session = fresh(shared_tab, "planar_2r")
     seen = []
-    try:
-        session.on_parameters_change(lambda values: seen.append(values["l1"]))
-        box = walk.parameter_box(page, session, "l1")
-        walk.type_text(box, "1e1")                    # "1", "1e" and "1e1" reach the server
-        shots.wait_until(lambda: session.params["l1"] == pytest.approx(10.0, rel=1e-12), 5, "l1 = 10")
-        shots.wait_until(lambda: seen, 5, "the model to follow")
-        time.sleep(0.3)
-        assert all(v == pytest.approx(10.0, rel=1e-12) for v in seen), seen        # never 1, never refused
-        assert not any("Parameter" in n for n in notifications(page))
-        walk.type_text(box, "-0.5")
-        page.get_by_text("a length must not be negative").first.wait_for(timeout=5000)
-        assert session.params["l1"] == pytest.approx(10.0, rel=1e-12) 
-        assert box.input_value() == "1e1"                # the last good text is back
-        pick(page, session, "throwing_arm")
-        shots.select_tab(page, "Throw studio")
-        studio = session.state["throw"]["studio"]
-        page.get_by_role("tab", name="Edit", exact=True).click()
-        spring = shots.field(page, "Spring k [N m/rad]")
-        walk.type_text(spring, "1e9")
-        shots.wait_until(lambda: studio.draft.k == pytest.approx(1e9, rel=1e-12), 5, "k = 1e9")
-        assert len([n for n in notifications(page) if "Spring" in n]) <= 1
-    finally:
-        page.context.close()
+    session.on_parameters_change(lambda values: seen.append(values["l1"]))
+    box = walk.parameter_box(page, session, "l1")
+    walk.type_text(box, "1e1")                    # "1", "1e" and "1e1" reach the server
+    shots.wait_until(lambda: session.params["l1"] == pytest.approx(10.0, rel=1e-12), 5, "l1 = 10")
+    shots.wait_until(lambda: seen, 5, "the model to follow")
+    time.sleep(0.3)
+    assert all(v == pytest.approx(10.0, rel=1e-12) for v in seen), seen        # never 1, never refused
+    assert not any("Parameter" in n for n in notifications(page))
+    walk.type_text(box, "-0.5")
+    page.get_by_text("a length must not be negative").first.wait_for(timeout=5000)
+    assert session.params["l1"] == pytest.approx(10.0, rel=1e-12) 
+    assert box.input_value() == "1e1"                # the last good text is back
+    pick(page, session, "throwing_arm")
+    shots.select_tab(page, "Throw studio")
+    studio = session.state["throw"]["studio"]
+    page.get_by_role("tab", name="Edit", exact=True).click()
+    spring = shots.field(page, "Spring k [N m/rad]")
+    walk.type_text(spring, "1e9")
+    shots.wait_until(lambda: studio.draft.k == pytest.approx(1e9, rel=1e-12), 5, "k = 1e9")
+    assert len([n for n in notifications(page) if "Spring" in n]) <= 1
 
 
 def test_picker_is_sorted_searchable_and_a_group_loads_nothing(lab, browser):
@@ -299,23 +301,20 @@ def test_address_opens_that_page_and_follows_it(lab, browser, tmp_path):
         page.context.close()
 
 
-def test_a_clicked_tab_stays_when_a_panel_writes_the_address(lab, browser):
+def test_a_clicked_tab_stays_when_a_panel_writes_the_address(shared_tab):
     """Found by the walk: a tab clicked by the student jumped back to the previous one when a
     panel wrote the address (a step revealed) before the page had told the server of the click."""
-    page, session = open_page(lab, browser, "robot=planar_2r&tab=model", "planar_2r")
-    try:
-        for title in ("Steps", "Control", "Robot"):
-            shots.select_tab(page, title)
-            session.remember(step=None)              # at once: the click's report is still on its way
-            page.wait_for_timeout(400)
-            assert shots.selected_tab(page) == title
-            shots.wait_until(lambda: session.url.get("tab") == title.lower(), 5, f"tab={title.lower()} in the address")
-        pick(page, session, "rp_2004_03_25")        # same tabs: the choice stays across a switch
-        assert shots.selected_tab(page) == "Robot"
-        pick(page, session, "throwing_arm")          # other tabs: rebuilt, and the address's tab selected again
-        shots.wait_until(lambda: shots.selected_tab(page) == "Robot", 10, "the Robot tab selected again")
-    finally:
-        page.context.close()
+    page, session = fresh(shared_tab, "planar_2r", "Model")
+    for title in ("Steps", "Control", "Robot"):
+        shots.select_tab(page, title)
+        session.remember(step=None)              # at once: the click's report is still on its way
+        page.wait_for_timeout(400)
+        assert shots.selected_tab(page) == title
+        shots.wait_until(lambda: session.url.get("tab") == title.lower(), 5, f"tab={title.lower()} in the address")
+    pick(page, session, "rp_2004_03_25")        # same tabs: the choice stays across a switch
+    assert shots.selected_tab(page) == "Robot"
+    pick(page, session, "throwing_arm")          # other tabs: rebuilt, and the address's tab selected again
+    shots.wait_until(lambda: shots.selected_tab(page) == "Robot", 10, "the Robot tab selected again")
 
 
 # ====================================================================== the walk
