@@ -72,12 +72,14 @@ def rounded(node: ast.AST) -> bool:
 
 
 def float_by_form(node: ast.AST) -> bool:
-    """An expression whose value is a float whatever its inputs: float(...), a true division, a
+    """An expression whose value is a float whatever its inputs: float(...), a true division (not a
+    path joined with a text, ``folder / "name"``), a
     float function or constant of math/numpy, or arithmetic with any of these or a float literal."""
     if float_literal(node):
         return True
     if isinstance(node, ast.BinOp):
-        return isinstance(node.op, ast.Div) or float_by_form(node.left) or float_by_form(node.right)
+        path_join = any(isinstance(side, ast.Constant) and isinstance(side.value, str) for side in (node.left, node.right))
+        return (isinstance(node.op, ast.Div) and not path_join) or float_by_form(node.left) or float_by_form(node.right)
     if isinstance(node, ast.UnaryOp):
         return float_by_form(node.operand)
     if isinstance(node, ast.Call):

@@ -8,7 +8,7 @@ other modules.
 
 >>> import sympy as sp
 >>> x = sp.Symbol("x")
->>> numeric_function([x], x ** 2 + 1)(3.0)
+>>> numeric_function([x], x ** 2 + 1)(3.0)      # exact: small integers in binary floating point
 10.0
 """
 from __future__ import annotations
