@@ -30,59 +30,65 @@ def typed(page, label, text, at_once=False):
     box.press("Enter")
 
 
-def test_run_replay_and_plots(lab, browser):
+@pytest.fixture(scope="module")
+def control_page(lab, browser):
+    """One Control tab shared by the tests of this module (each loads its robot anew or sets every
+    field it uses): opening a page is most of a browser test's time."""
     page, session = open_control(lab, browser)
-    try:
-        panel = session.state["control"]["panel"]
-        assert panel.controller.value == "Computed torque (feedback linearization)"
-        assert page.locator("math").count() >= 1                       # the law, typeset
-        session.set_q([0.1, 0.2])
-        typed(page, "Reference values", "by=0.5,-0.3 T=1")
-        wait_until(lambda: panel.ref_params.value == "by=0.5,-0.3 T=1", what="the typed reference")
-        page.get_by_role("button", name="Run", exact=True).click()
-        page.get_by_text("completed:").first.wait_for(timeout=60000)
-        res = panel.result
-        assert res.controller == "computed_torque" and res.completed
-        assert np.allclose(res.q[0], [0.1, 0.2]) and np.allclose(res.ref[-1], [0.6, -0.1])
-        assert abs(res.e[-1]).max() < 1e-6
-        wait_until(lambda: page.locator(".uplot").count() >= 2, what="the uPlot charts")
-        assert page.get_by_text("Tracking error e = q_d - q").count() == 1
-        # replay: Play moves time forward and the robot with it
-        page.get_by_role("button", name="▶ Play").click()
-        wait_until(lambda: panel._replay["t"] > 0.3, what="the replay to advance")
-        page.get_by_role("button", name="❚❚ Pause").click()
-        wait_until(lambda: not panel._replay["playing"], what="the pause")
-        t = panel._replay["t"]
-        time.sleep(0.3)
-        assert panel._replay["t"] == t
-        k = min(len(res.t) - 1, int(np.searchsorted(res.t, t)))
-        moving = np.abs(res.q - res.q[0]).max() > 0.1
-        assert moving
-        pose = session.scene.drawing.poses(res.q[k])["link2"]
-        wait_until(lambda: np.allclose(session.scene._frames["link2"].position, pose[:3, 3], atol=1e-6),
-                   what="the robot drawn at the replayed time")
-        assert "control_ref" in session.scene._ghosts                   # the reference ghost
-    finally:
-        page.context.close()
+    yield page, session
+    page.context.close()
 
 
-def test_bad_gain_is_a_message_and_the_page_keeps_working(lab, browser):
-    page, session = open_control(lab, browser)
-    try:
-        panel = session.state["control"]["panel"]
-        typed(page, "Gains", "Kq=3")
-        wait_until(lambda: panel.gains.value == "Kq=3", what="the typed gain")
-        page.get_by_role("button", name="Run", exact=True).click()
-        page.get_by_text("unknown gain 'Kq'").first.wait_for(timeout=30000)
-        assert panel.result is None
-        wait_until(lambda: "not run: " in panel.status.content, what="the status line")
-        typed(page, "Gains", "Kp=64, Kd=16")
-        wait_until(lambda: panel.gains.value == "Kp=64, Kd=16", what="the corrected gains")
-        page.get_by_role("button", name="Run", exact=True).click()
-        page.get_by_text("completed:").first.wait_for(timeout=60000)
-        assert panel.result.gains["Kp"] == pytest.approx([64.0, 64.0], abs=1e-12)
-    finally:
-        page.context.close()
+def test_run_replay_and_plots(control_page):
+    page, session = control_page
+    shots.reload_robot(page, session, "planar_2r")
+    panel = session.state["control"]["panel"]
+    assert panel.controller.value == "Computed torque (feedback linearization)"
+    assert page.locator("math").count() >= 1                       # the law, typeset
+    session.set_q([0.1, 0.2])
+    typed(page, "Reference values", "by=0.5,-0.3 T=1")
+    wait_until(lambda: panel.ref_params.value == "by=0.5,-0.3 T=1", what="the typed reference")
+    page.get_by_role("button", name="Run", exact=True).click()
+    page.get_by_text("completed:").first.wait_for(timeout=60000)
+    res = panel.result
+    assert res.controller == "computed_torque" and res.completed
+    assert np.allclose(res.q[0], [0.1, 0.2]) and np.allclose(res.ref[-1], [0.6, -0.1])
+    assert abs(res.e[-1]).max() < 1e-6
+    wait_until(lambda: page.locator(".uplot").count() >= 2, what="the uPlot charts")
+    assert page.get_by_text("Tracking error e = q_d - q").count() == 1
+    # replay: Play moves time forward and the robot with it
+    page.get_by_role("button", name="▶ Play").click()
+    wait_until(lambda: panel._replay["t"] > 0.3, what="the replay to advance")
+    page.get_by_role("button", name="❚❚ Pause").click()
+    wait_until(lambda: not panel._replay["playing"], what="the pause")
+    t = panel._replay["t"]
+    time.sleep(0.3)
+    assert panel._replay["t"] == t
+    k = min(len(res.t) - 1, int(np.searchsorted(res.t, t)))
+    moving = np.abs(res.q - res.q[0]).max() > 0.1
+    assert moving
+    pose = session.scene.drawing.poses(res.q[k])["link2"]
+    wait_until(lambda: np.allclose(session.scene._frames["link2"].position, pose[:3, 3], atol=1e-6),
+               what="the robot drawn at the replayed time")
+    assert "control_ref" in session.scene._ghosts                   # the reference ghost
+
+
+def test_bad_gain_is_a_message_and_the_page_keeps_working(control_page):
+    page, session = control_page
+    shots.reload_robot(page, session, "planar_2r")
+    panel = session.state["control"]["panel"]
+    panel.configure("computed_torque")
+    typed(page, "Gains", "Kq=3")
+    wait_until(lambda: panel.gains.value == "Kq=3", what="the typed gain")
+    page.get_by_role("button", name="Run", exact=True).click()
+    page.get_by_text("unknown gain 'Kq'").first.wait_for(timeout=30000)
+    assert panel.result is None
+    wait_until(lambda: "not run: " in panel.status.content, what="the status line")
+    typed(page, "Gains", "Kp=64, Kd=16")
+    wait_until(lambda: panel.gains.value == "Kp=64, Kd=16", what="the corrected gains")
+    page.get_by_role("button", name="Run", exact=True).click()
+    page.get_by_text("completed:").first.wait_for(timeout=60000)
+    assert panel.result.gains["Kp"] == pytest.approx([64.0, 64.0], abs=1e-12)
 
 
 def test_adaptive_run_plots_estimates_against_true_values_and_png():
@@ -110,15 +116,6 @@ def run_in_page(page, panel, controller, runs_before):
     page.get_by_role("button", name="Run", exact=True).click()
     wait_until(lambda: panel.result is not None and panel.result.controller == controller
                and panel._runs > runs_before, what=f"the {controller} run")
-
-
-@pytest.fixture(scope="module")
-def control_page(lab, browser):
-    """One Control tab shared by the tests of issue 12's plots (each sets every field it uses);
-    opening a page is most of a browser test's time."""
-    page, session = open_control(lab, browser)
-    yield page, session
-    page.context.close()
 
 
 def fresh(control_page):
