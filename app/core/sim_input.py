@@ -12,7 +12,7 @@ import numpy as np  # noqa: F401 (doctests)
 
 from .errors import SimulationError
 from .expressions import ExpressionError, parse_expression
-from .sim import PointForce, Surface
+from .sim_plant import PointForce, Surface
 
 
 def parse_numbers(text: Optional[str], what: str) -> Optional[List[float]]:
