@@ -122,6 +122,8 @@ class TaskContext:
         self.notes: List[str] = list(exercise.notes)
         self.progress = progress or (lambda f, m: None)
         self._derived: Dict[tuple, Dynamics] = {}
+        #: what earlier tasks leave for later ones by name (a jacobian task's symbolic and numeric J ...)
+        self.objects: Dict[str, Any] = {}
         self.current = "task"                      # the task being solved, for messages
         self.answer_steps: Dict[str, int] = {}      # answer -> index of the step that shows it
 

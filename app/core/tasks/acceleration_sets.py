@@ -24,13 +24,13 @@ from ..expressions import symbol
 from ..latex import mat, num, vec
 from ..steps import to_latex
 from . import task
-from .kinematic import data
+from .context import TaskView
 
 
 @task("acceleration_polygon")
 def acceleration_polygon_task(ctx, spec):
     """Reachable joint accelerations under torque bounds (see the module docstring)."""
-    d = data(ctx)
+    d = TaskView(ctx)
     robot = d.robot
     name = str(spec.get("name", "P"))
     n = robot.n

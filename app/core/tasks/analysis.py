@@ -79,174 +79,17 @@ import numpy as np
 import sympy as sp
 
 from ..coordinates import in_coordinates
-from ..dynamics import natural_angles, pretty
 from ..exercise import ExerciseError
-from ..expressions import ExpressionError, parse_number, symbol
+from ..expressions import symbol
 from ..mathtext import symbols_text
-from ..kinematics import Kinematics
 from ..numeric import numeric_function
-from ..robot import RESERVED_NAMES
 from ..steps import to_latex
 from ..trig import TrigPoly
 from . import task
+from .context import TaskView, tidy_cancelled
 
 
 # ====================================================================== shared helpers
-class _Analysis:
-    """The robot's model with the exercise's substitutions, printers and simplifiers."""
-
-    def __init__(self, ctx, spec, kind: str):
-        self.ctx, self.spec, self.kind = ctx, spec, kind
-        self.robot = ctx.robot
-        self.dyn = ctx.dynamics()
-        self.coords = list(self.robot.coordinates)
-        self.q = sp.Matrix(self.robot.q)
-        self.dq = sp.Matrix(self.robot.dq)
-        self.ddq = sp.Matrix(self.robot.ddq)
-        self.kin = Kinematics(self.robot)
-        self.angles = natural_angles(self.kin)
-        self.suffix = str(spec.get("suffix", ""))
-        self.subs = self.mapping(spec.get("substitute") or {}, "substitute")
-        self.M = self.apply(self.dyn.M)
-        self.g = self.apply(self.dyn.g)
-        self.k = self.apply(self.dyn.spring)
-        self.c = self.apply(self.dyn.c)
-        self.C = self.apply(self.dyn.C)
-
-    # ---------------------------------------------------------------- input
-    def where(self, option: str) -> str:
-        return f"{self.ctx.exercise.source or self.ctx.exercise.id}: {self.kind}.{option}"
-
-    def fail(self, option: str, what: str) -> ExerciseError:
-        return ExerciseError(f"{self.where(option)}: {what}")
-
-    def expr(self, value, option: str) -> sp.Expr:
-        out = self.ctx.expr(value, f"{self.kind}.{option}")
-        clash = sorted(s.name for s in out.free_symbols if s.name in RESERVED_NAMES)
-        if clash:
-            raise self.fail(option, f"{', '.join(clash)}: a sympy/Python name that would not read back as a "
-                            f"symbol in the JSON answers; use e.g. {clash[0]}_")
-        return out
-
-    def number(self, value, option: str) -> float:
-        try:
-            return parse_number(value, self.where(option))
-        except ExpressionError as exc:
-            raise ExerciseError(str(exc)) from None
-
-    def mapping(self, raw, option: str) -> Dict[sp.Symbol, sp.Expr]:
-        if not isinstance(raw, dict):
-            raise self.fail(option, f"expected a mapping name: expression, got {raw!r}")
-        return {symbol(str(k)): self.expr(v, f"{option}.{k}") for k, v in raw.items()}
-
-    def configuration(self, option: str, prefix: str = "") -> Dict[sp.Symbol, float]:
-        raw = self.spec.get(option) or {}
-        if not isinstance(raw, dict):
-            raise self.fail(option, "expected a mapping coordinate: value")
-        out = {}
-        for name, value in raw.items():
-            name = str(name)
-            if name not in self.coords:
-                raise self.fail(f"{option}.{name}", f"not a coordinate of {self.robot.name} "
-                                f"(coordinates: {', '.join(self.coords)})")
-            out[symbol(prefix + name)] = self.number(value, f"{option}.{name}")
-        return out
-
-    def parameter_values(self) -> Dict[sp.Symbol, float]:
-        """Numbers of the robot's parameters (the exercise's ``given`` first, then the file's
-        defaults) and of the other numeric data the exercise gives (e.g. a gain gamma)."""
-        values = {}
-        for name, value in self.ctx.given.items():
-            if isinstance(value, (int, float, str)) and str(name).isidentifier():
-                values[symbol(str(name))] = self.number(value, f"given.{name}")
-        for name, p in self.robot.parameters.items():
-            values.setdefault(p.symbol, p.value)
-        return values
-
-    def point(self, option: str = "point") -> Tuple[Optional[str], sp.Matrix, str]:
-        """(body, position in the body, label) of a named point or of {body, at}."""
-        raw = self.spec.get(option)
-        if raw is None:
-            raise self.fail(option, "required: a point name or {body, at}")
-        if isinstance(raw, str):
-            if raw not in self.robot.points:
-                raise self.fail(option, f"unknown point '{raw}' (points of {self.robot.name}: "
-                                f"{', '.join(self.robot.points) or 'none'})")
-            pt = self.robot.points[raw]
-            return pt.body, pt.position, raw
-        if not isinstance(raw, dict) or "body" not in raw:
-            raise self.fail(option, "expected a point name or {body: NAME, at: [x, y, z]}")
-        body = raw["body"]
-        if body != "base" and body not in [b.name for b in self.robot.bodies]:
-            raise self.fail(f"{option}.body", f"unknown body '{body}'")
-        at = raw.get("at", [0, 0, 0])
-        if not isinstance(at, list) or len(at) != 3:
-            raise self.fail(f"{option}.at", "expected [x, y, z]")
-        local = sp.Matrix([self.expr(v, f"{option}.at") for v in at])
-        return (None if body == "base" else body), local, str(raw.get("name", "point"))
-
-    def components(self) -> List[int]:
-        comp = self.spec.get("components", [0, 1])
-        if not isinstance(comp, list) or not comp or any(c not in (0, 1, 2) for c in comp):
-            raise self.fail("components", "expected a list of 0 (x), 1 (y), 2 (z)")
-        return comp
-
-    # ---------------------------------------------------------------- model
-    def apply(self, obj):
-        if not self.subs:
-            return obj
-        return obj.subs(self.subs) if isinstance(obj, sp.MatrixBase) else sp.sympify(obj).subs(self.subs)
-
-    def tidy(self, expr) -> sp.Expr:
-        return tidy(expr, self.angles)
-
-    def tidy_matrix(self, mat) -> sp.Matrix:
-        return sp.Matrix(mat).applyfunc(self.tidy)
-
-    def L(self, expr) -> str:
-        return to_latex(expr, self.coords)
-
-    def answer(self, name: str, value) -> None:
-        self.ctx.answer(name + self.suffix, value)
-
-    def angle_coordinates(self) -> List[sp.Symbol]:
-        """Coordinates that enter a revolute joint (they are angles)."""
-        out = set()
-        for body in self.robot.bodies:
-            if body.joint.type == "revolute":
-                out |= body.joint.value.free_symbols & set(self.q)
-        return [s for s in self.q if s in out]
-
-    def bodies_moved_by(self, coordinate: sp.Symbol) -> List[str]:
-        names = []
-        for body in self.robot.bodies:
-            chain = self.robot.chain(body.name)
-            if any(coordinate in b.joint.value.free_symbols for b in chain):
-                names.append(body.name)
-        return names
-
-
-def tidy(expr, angles: Sequence = ()) -> sp.Expr:
-    """Compact form of a (possibly rational) trigonometric expression through the exact canonical
-    form of its numerator and denominator.
-
-    >>> q = symbol("q")
-    >>> tidy((sp.sin(q)**2 + sp.cos(q)**2) * symbol("m") / 2)
-    m/2
-    """
-    expr = sp.sympify(expr)
-    if not expr.free_symbols:
-        return sp.nsimplify(expr) if expr.is_Float else expr
-    num, den = sp.fraction(sp.cancel(sp.together(expr)))
-    num_tp = TrigPoly.from_expr(sp.expand(num)).expand()
-    den_tp = TrigPoly.from_expr(sp.expand(den)).expand()
-    if all(not freq for (freq, _kind) in den_tp.terms):
-        d = den_tp.to_expr()
-        num_tp = TrigPoly({k: sp.factor(sp.cancel(c / d)) for k, c in num_tp.terms.items()})
-        return pretty(num_tp, angles)
-    return pretty(num_tp, angles) / pretty(den_tp, angles)
-
-
 def _is_zero(expr) -> bool:
     expr = sp.sympify(expr)
     num, _den = sp.fraction(sp.cancel(sp.together(expr)))
@@ -462,7 +305,7 @@ class _EquilibriumSolver:
 @task("equilibria")
 def equilibria_task(ctx, spec):
     """Configurations with g(q) + k(q) = 0 (see the module docstring)."""
-    a = _Analysis(ctx, spec, "equilibria")
+    a = TaskView(ctx, spec, "equilibria")
     rhs = a.g + (a.k if spec.get("springs", True) else sp.zeros(len(a.coords), 1))
     a.ctx.step("Equilibrium condition", rf"g(q) {'+ k(q) ' if a.robot.springs and spec.get('springs', True) else ''}= {a.L(rhs)} = 0",
                "At rest and without inputs the robot stays still exactly where the potential forces vanish.",
@@ -538,7 +381,7 @@ def _coefficient_conditions(vector, variables) -> List[sp.Expr]:
 @task("gravity_balance")
 def gravity_balance_task(ctx, spec):
     """Parameters that cancel gravity for every configuration (see the module docstring)."""
-    a = _Analysis(ctx, spec, "gravity_balance")
+    a = TaskView(ctx, spec, "gravity_balance")
     names = spec.get("solve_for")
     if not isinstance(names, list) or not names:
         raise a.fail("solve_for", "expected a list of parameters to choose (e.g. CoM distances)")
@@ -569,9 +412,9 @@ def gravity_balance_task(ctx, spec):
     a.ctx.step("Balanced parameters", r",\quad ".join(f"{a.L(s)} = {a.L(v)}" for s, v in zip(unknowns, values)),
                "Negative CoM distances mean counter-masses beyond the joint axis.",
                bodies=[b.name for b in a.robot.bodies])
-    g_bal = a.tidy_matrix(a.g.subs(dict(zip(unknowns, values))))
+    g_bal = a.tidy_cancelled_matrix(a.g.subs(dict(zip(unknowns, values))))
     if zero:
-        a.answer("g_zeroed", a.tidy_matrix(g))
+        a.answer("g_zeroed", a.tidy_cancelled_matrix(g))
     if zero:
         a.ctx.step("Gravity of the balanced robot", rf"g(q) = {a.L(g_bal)}",
                    "What remains once the links are balanced: only the terms of "
@@ -587,19 +430,19 @@ def gravity_balance_task(ctx, spec):
 @task("factorizations")
 def factorizations_task(ctx, spec):
     """Christoffel and non-skew factorizations of c(q, q') (see the module docstring)."""
-    a = _Analysis(ctx, spec, "factorizations")
+    a = TaskView(ctx, spec, "factorizations")
     n = len(a.coords)
     Ck = [a.apply(Ci) for Ci in a.dyn.christoffel]
-    S = a.tidy_matrix(a.C)
+    S = a.tidy_cancelled_matrix(a.C)
     S_alt, how = _other_factorization(a, Ck, S)
-    Mdot = a.tidy_matrix(sum((a.M.diff(a.q[k]) * a.dq[k] for k in range(n)), sp.zeros(n, n)))
-    N1 = a.tidy_matrix(Mdot - 2 * S)
-    N2 = a.tidy_matrix(Mdot - 2 * S_alt)
+    Mdot = a.tidy_cancelled_matrix(sum((a.M.diff(a.q[k]) * a.dq[k] for k in range(n)), sp.zeros(n, n)))
+    N1 = a.tidy_cancelled_matrix(Mdot - 2 * S)
+    N2 = a.tidy_cancelled_matrix(Mdot - 2 * S_alt)
     skew1 = all(_is_zero(N1[i, j] + N1[j, i]) for i in range(n) for j in range(i, n))
     skew2 = all(_is_zero(N2[i, j] + N2[j, i]) for i in range(n) for j in range(i, n))
     assert all(_is_zero(e) for e in S_alt * a.dq - a.c), "internal error: S' q' != c"
-    p = a.tidy_matrix(a.M * a.dq)
-    ST = a.tidy_matrix(S.T * a.dq)
+    p = a.tidy_cancelled_matrix(a.M * a.dq)
+    ST = a.tidy_cancelled_matrix(S.T * a.dq)
     bodies = [b.name for b in a.robot.bodies]
     a.ctx.step("Christoffel factorization", rf"S(q,\dot q) = \begin{{pmatrix}} \dot q^T C_1 \\ \vdots \\ \dot q^T C_n \end{{pmatrix}} = {a.L(S)}",
                r"Row $i$ is $\dot q^T C_i$ with the Christoffel matrices $C_i$.", bodies=bodies)
@@ -624,7 +467,7 @@ def factorizations_task(ctx, spec):
     a.answer("ST_dq", ST)
 
 
-def _other_factorization(a: _Analysis, Ck, S):
+def _other_factorization(a: TaskView, Ck, S):
     """A second factorization c = S' q' and how it was built: each product q'_j q'_k (j <= k) of
     c_i in column k (``alternative: last``, default) or in column j (``first``), or S' = S + S0 with
     a given S0(q') such that S0 q' = 0 (``plus``)."""
@@ -636,7 +479,7 @@ def _other_factorization(a: _Analysis, Ck, S):
         S0 = sp.Matrix([[a.expr(e, "plus") for e in row] for row in raw])
         if not all(_is_zero(e) for e in S0 * a.dq):
             raise a.fail("plus", "S0 q' must vanish for every q' (otherwise S + S0 no longer factorizes c)")
-        return a.tidy_matrix(S + S0), (rf"$S' = S + S_0$ with $S_0 = {a.L(S0)}$: $S_0 \dot q = 0$, so $S' \dot q = c$ as well.")
+        return a.tidy_cancelled_matrix(S + S0), (rf"$S' = S + S_0$ with $S_0 = {a.L(S0)}$: $S_0 \dot q = 0$, so $S' \dot q = c$ as well.")
     first = {"first": True, "last": False}.get(a.spec.get("alternative", "last"))
     if first is None:
         raise a.fail("alternative", "expected 'first' or 'last' (the column of each product q'_j q'_k)")
@@ -650,7 +493,7 @@ def _other_factorization(a: _Analysis, Ck, S):
                 else:
                     S_alt[i, k] += coeff * a.dq[j]
     col = "j" if first else "k"
-    return a.tidy_matrix(S_alt), (r"Each product $\dot q_j \dot q_k$ ($j \le k$) of $c_i$ is written as its coefficient "
+    return a.tidy_cancelled_matrix(S_alt), (r"Each product $\dot q_j \dot q_k$ ($j \le k$) of $c_i$ is written as its coefficient "
                                   f"times the other velocity, in column ${col}$.")
 
 
@@ -658,7 +501,7 @@ def _other_factorization(a: _Analysis, Ck, S):
 @task("coordinate_map")
 def coordinate_map_task(ctx, spec):
     """Model in new coordinates theta with q = f(theta) (see the module docstring)."""
-    a = _Analysis(ctx, spec, "coordinate_map")
+    a = TaskView(ctx, spec, "coordinate_map")
     if spec.get("forward") is not None:
         new, f = _invert_forward_map(a)
     else:
@@ -678,9 +521,9 @@ def coordinate_map_task(ctx, spec):
     except ValueError as exc:
         raise a.fail("map", str(exc)) from None
     T = change.T
-    M_new = a.tidy_matrix(change.M).applyfunc(lambda e: _partial_fractions(e, theta))
-    g_new = a.tidy_matrix(change.g)
-    c_new = a.tidy_matrix(change.c) if spec.get("velocity_terms") else None
+    M_new = a.tidy_cancelled_matrix(change.M).applyfunc(lambda e: _partial_fractions(e, theta))
+    g_new = a.tidy_cancelled_matrix(change.g)
+    c_new = a.tidy_cancelled_matrix(change.c) if spec.get("velocity_terms") else None
     th = sp.Matrix(theta)
     a.ctx.step("Change of coordinates", rf"q = f(\theta) = {a.L(f)},\quad T = \frac{{\partial f}}{{\partial \theta}} = {a.L(T)}",
                r"Velocities map as $\dot q = T \dot\theta$; the kinetic energy keeps its value.")
@@ -698,8 +541,8 @@ def coordinate_map_task(ctx, spec):
     a.answer("M_new", M_new)
     a.answer("g_new", g_new)
     a.answer("force_map", T.T)
-    if T.rows == T.cols and not _is_zero(a.tidy(T.det())):
-        inv = a.tidy_matrix(T.T.inv())
+    if T.rows == T.cols and not _is_zero(a.tidy_cancelled(T.det())):
+        inv = a.tidy_cancelled_matrix(T.T.inv())
         a.ctx.step("Forces on the old coordinates", rf"\tau_q = T^{{-T}} \tau_\theta = {a.L(inv)}\,\tau_\theta",
                    "Inverting the virtual-work relation ($T$ is invertible).")
         a.answer("force_map_inverse", inv)
@@ -720,7 +563,7 @@ def _partial_fractions(entry, coordinates):
     return sp.apart(sp.cancel(entry), var)
 
 
-def _forward_entry(a: _Analysis, name: str, raw) -> sp.Expr:
+def _forward_entry(a: TaskView, name: str, raw) -> sp.Expr:
     """A new coordinate as a function of q: an expression, ``{point, component}`` (x, y or z of a
     named point) or ``{angle: body}`` (the orientation of a link of a planar robot)."""
     from ..jacobians import planar_angle
@@ -734,11 +577,11 @@ def _forward_entry(a: _Analysis, name: str, raw) -> sp.Expr:
         comp = {"x": 0, "y": 1, "z": 2}.get(raw.get("component"))
         if pt is None or comp is None:
             raise a.fail(where, "expected {point: NAME, component: x|y|z} with a named point of the robot")
-        return a.tidy(a.kin.point_position(pt.body, pt.position)[comp])
+        return a.tidy_cancelled(a.kin.point_position(pt.body, pt.position)[comp])
     return a.expr(raw, where)
 
 
-def _invert_forward_map(a: _Analysis):
+def _invert_forward_map(a: TaskView):
     """New coordinates given as functions of q (``forward``): their names, and q as functions of them
     (solved in closed form; one solution is required)."""
     raw = a.spec["forward"]
@@ -753,30 +596,30 @@ def _invert_forward_map(a: _Analysis):
     if len(sols) != 1 or set(sols[0]) != set(a.q):
         raise a.fail("forward", f"cannot invert the map in closed form ({len(sols)} solution(s)): give q as "
                      "functions of the new coordinates with new/map")
-    f = sp.Matrix([a.tidy(sols[0][qk]) for qk in a.q])
+    f = sp.Matrix([a.tidy_cancelled(sols[0][qk]) for qk in a.q])
     Jf = sp.Matrix(h).jacobian(a.q)
     a.ctx.step("New coordinates", rf"{to_latex(sp.Matrix([symbol(k) for k in new]), new)} = {a.L(sp.Matrix(h))},\quad "
-               rf"J = \frac{{\partial h}}{{\partial q}} = {a.L(a.tidy_matrix(Jf))}",
+               rf"J = \frac{{\partial h}}{{\partial q}} = {a.L(a.tidy_cancelled_matrix(Jf))}",
                "Solved for $q$ below (closed form); $J$ is invertible where the new coordinates are valid.")
-    a.answer("J_forward", a.tidy_matrix(Jf))
+    a.answer("J_forward", a.tidy_cancelled_matrix(Jf))
     return new, f
 
 
 # ====================================================================== points
-def _point_data(a: _Analysis):
+def _point_data(a: TaskView):
     body, local, label = a.point()
     label = str(a.spec.get("name", label))
     comp = a.components()
     p3 = a.kin.point_position(body, local)
-    p = sp.Matrix([a.tidy(p3[c]) for c in comp])
-    J = sp.Matrix([[a.tidy(sp.diff(p3[c], qk)) for qk in a.q] for c in comp])
+    p = sp.Matrix([a.tidy_cancelled(p3[c]) for c in comp])
+    J = sp.Matrix([[a.tidy_cancelled(sp.diff(p3[c], qk)) for qk in a.q] for c in comp])
     return body, label, p, J
 
 
 @task("point_kinematics")
 def point_kinematics_task(ctx, spec):
     """Position, Jacobian and generalized force of a point (see the module docstring)."""
-    a = _Analysis(ctx, spec, "point_kinematics")
+    a = TaskView(ctx, spec, "point_kinematics")
     body, label, p, J = _point_data(a)
     bodies = [body] if body else []
     a.ctx.step(f"Position of {label}", rf"p_{{{label}}} = {a.L(p)}", "Forward kinematics of the point.", bodies=bodies)
@@ -785,12 +628,12 @@ def point_kinematics_task(ctx, spec):
     a.answer(f"p_{label}", p)
     a.answer(f"J_{label}", J)
     if J.cols == J.rows:
-        det = a.tidy(J.det())
+        det = a.tidy_cancelled(J.det())
         a.ctx.step("Determinant of the Jacobian", rf"\det J_{{{label}}} = {a.L(det)}",
                    "J is singular where it vanishes.", bodies=bodies)
         a.answer(f"det_{label}", det)
     if J.cols == J.rows + 1:
-        minors = sp.Matrix([a.tidy(J[:, [j for j in range(J.cols) if j != k]].det()) for k in range(J.cols)])
+        minors = sp.Matrix([a.tidy_cancelled(J[:, [j for j in range(J.cols) if j != k]].det()) for k in range(J.cols)])
         a.ctx.step("Minors of the Jacobian", r",\quad ".join(rf"\det J_{{-{k + 1}}} = {a.L(m)}" for k, m in enumerate(minors)),
                    "J loses rank exactly where all these minors vanish together.")
         a.answer(f"minors_{label}", minors)
@@ -799,7 +642,7 @@ def point_kinematics_task(ctx, spec):
         if not isinstance(force, list) or len(force) != J.rows:
             raise a.fail("force", f"expected a list of {J.rows} expressions (one per component)")
         F = sp.Matrix([a.expr(v, "force") for v in force])
-        tau = a.tidy_matrix(J.T * F)
+        tau = a.tidy_cancelled_matrix(J.T * F)
         a.ctx.step(f"Generalized force of a force at {label}", rf"\tau = J^T F = {a.L(J.T)} {a.L(F)} = {a.L(tau)}",
                    "Virtual work of the force on the point, one component per coordinate.",
                    bodies=bodies)
@@ -809,16 +652,16 @@ def point_kinematics_task(ctx, spec):
 @task("cartesian_inertia")
 def cartesian_inertia_task(ctx, spec):
     """Cartesian inertia of a point, M_p = J^-T M J^-1 (see the module docstring)."""
-    a = _Analysis(ctx, spec, "cartesian_inertia")
+    a = TaskView(ctx, spec, "cartesian_inertia")
     body, label, p, J = _point_data(a)
     if J.rows > J.cols:
         raise a.fail("components", f"the Jacobian is {J.rows}x{J.cols}: more task components than coordinates")
     a.answer("J", J)
     if J.rows == J.cols:
-        det = a.tidy(J.det())
+        det = a.tidy_cancelled(J.det())
         Jinv = J.inv()
         Mp = sp.Matrix(J.rows, J.cols, lambda i, j: sp.factor(sp.cancel(sp.together((Jinv.T * a.M * Jinv)[i, j]))))
-        Mp = a.tidy_matrix(Mp)
+        Mp = a.tidy_cancelled_matrix(Mp)
         a.ctx.step(f"Jacobian of {label}", rf"p = {a.L(p)},\quad J = {a.L(J)},\quad \det J = {a.L(det)}",
                    r"$M_p$ exists away from the singularities $\det J = 0$.", bodies=[body] if body else [])
         a.ctx.step("Cartesian inertia", rf"M_p(q) = J^{{-T}} M J^{{-1}} = {a.L(Mp)}",
@@ -830,7 +673,7 @@ def cartesian_inertia_task(ctx, spec):
                    r"A redundant task: $M_p = (J M^{-1} J^T)^{-1}$, the inertia felt at the point when the joints move "
                    "with the dynamically consistent inverse (it exists where $J$ has full row rank).",
                    bodies=[body] if body else [])
-    at = a.configuration("at")
+    at = a.coordinate_values("at")
     if at:
         values = {**a.parameter_values(), **at}
         missing = set(a.q) - set(at)
@@ -858,20 +701,20 @@ def cartesian_inertia_task(ctx, spec):
 @task("rest_acceleration")
 def rest_acceleration_task(ctx, spec):
     """Joint and point accelerations from rest (see the module docstring)."""
-    a = _Analysis(ctx, spec, "rest_acceleration")
+    a = TaskView(ctx, spec, "rest_acceleration")
     n = len(a.coords)
     names = spec.get("inputs") or [f"tau{i + 1}" for i in range(n)]
     if not isinstance(names, list) or len(names) != n:
         raise a.fail("inputs", f"expected {n} names of generalized forces")
     u = sp.Matrix([a.expr(x, "inputs") for x in names])
     rhs = u - a.g - a.k
-    ddq = a.tidy_matrix(a.M.LUsolve(rhs))
+    ddq = a.tidy_cancelled_matrix(a.M.LUsolve(rhs))
     a.ctx.step("Accelerations from rest", rf"\ddot q_0 = M^{{-1}}(q)\,(u - g(q)) = {a.L(ddq)}",
                r"With $\dot q = 0$ the velocity terms vanish.", bodies=[b.name for b in a.robot.bodies])
     a.answer("ddq_rest", ddq)
     if spec.get("point") is not None:
         body, label, p, J = _point_data(a)
-        pdd = a.tidy_matrix(J * ddq)
+        pdd = a.tidy_cancelled_matrix(J * ddq)
         norm2 = sp.factor(sp.cancel(sp.together(sp.expand(sp.simplify((pdd.T * pdd)[0])))))
         a.ctx.step(f"Acceleration of {label}", rf"\ddot p_0 = J(q)\,\ddot q_0 = {a.L(pdd)}",
                    r"The term $\dot J(q)\, \dot q$ vanishes at rest.", bodies=[body] if body else [])
@@ -929,14 +772,14 @@ def _max_spectral_norm(f, lows, highs, seed: int = 0) -> Tuple[float, np.ndarray
 @task("gravity_gradient_bound")
 def gravity_gradient_bound_task(ctx, spec):
     """alpha = max ||dg/dq|| and the gain it requires (see the module docstring)."""
-    a = _Analysis(ctx, spec, "gravity_gradient_bound")
+    a = TaskView(ctx, spec, "gravity_gradient_bound")
     g = a.g
     if spec.get("use_balance"):
         bal = getattr(ctx, "balance", None)
         if not bal:
             raise a.fail("use_balance", "needs a preceding gravity_balance task")
         g = g.subs(bal)
-    dg = a.tidy_matrix(g.jacobian(a.q))
+    dg = a.tidy_cancelled_matrix(g.jacobian(a.q))
     k = _common_factor(list(dg), list(a.q))
     B = dg.applyfunc(lambda e: sp.cancel(e / k))
     values = a.parameter_values()
@@ -969,7 +812,7 @@ def gravity_gradient_bound_task(ctx, spec):
     a.answer("alpha", alpha)
     a.answer("alpha_at", sp.Matrix([float(x) for x in q_star]) if len(q_star) else sp.zeros(0, 1))
     if spec.get("kp_min") is not None:
-        kp = a.number(spec["kp_min"], "kp_min")
+        kp = a.constant(spec["kp_min"], "kp_min")
         name = spec.get("solve_for")
         if not name or name not in a.robot.parameters:
             raise a.fail("solve_for", "give the parameter to bound (a parameter of the robot)")
@@ -994,11 +837,11 @@ def _positive(k):
 @task("evaluate")
 def evaluate_task(ctx, spec):
     """Numeric model terms at a state (see the module docstring)."""
-    a = _Analysis(ctx, spec, "evaluate")
-    q = a.configuration("at")
+    a = TaskView(ctx, spec, "evaluate")
+    q = a.coordinate_values("at")
     if set(q) != set(a.q):
         raise a.fail("at", f"give every coordinate ({', '.join(a.coords)})")
-    dq = a.configuration("velocity", prefix="d")
+    dq = a.coordinate_values("velocity", prefix="d")
     values = {**a.parameter_values(), **q, **{s: 0.0 for s in a.dq}, **dq}
     num = lambda m: np.array(sp.Matrix(m).subs(values).evalf(), dtype=float)
     M, g, c = num(a.M), num(a.g + a.k), num(a.c)
@@ -1012,7 +855,7 @@ def evaluate_task(ctx, spec):
     dqv = np.array([values[s] for s in a.dq], dtype=float)
     a.answer("T_at", float(dqv @ M @ dqv / 2))
     if spec.get("acceleration") is not None:
-        ddq = a.configuration("acceleration", prefix="dd")
+        ddq = a.coordinate_values("acceleration", prefix="dd")
         ddqv = np.array([ddq.get(s, 0.0) for s in a.ddq])
         fr = num(a.apply(a.dyn.friction)).reshape(-1)
         tau = M @ ddqv + c.reshape(-1) + g.reshape(-1) + fr
@@ -1023,9 +866,9 @@ def evaluate_task(ctx, spec):
 @task("kinetic_energy_decay")
 def kinetic_energy_decay_task(ctx, spec):
     """The torque that makes the kinetic energy decay exponentially (see the module docstring)."""
-    a = _Analysis(ctx, spec, "kinetic_energy_decay")
+    a = TaskView(ctx, spec, "kinetic_energy_decay")
     gamma = a.expr(spec.get("gamma", "gamma_"), "gamma")
-    tau = a.tidy_matrix(-gamma / 2 * a.M * a.dq)
+    tau = a.tidy_cancelled_matrix(-gamma / 2 * a.M * a.dq)
     a.ctx.step("Power balance", r"\dot T = \dot q^T \tau \;(\text{no potential forces}),\quad "
                r"-\gamma T = -\tfrac{\gamma}{2}\dot q^T M(q)\dot q",
                "The kinetic energy changes only through the power of the torques.")
@@ -1033,9 +876,9 @@ def kinetic_energy_decay_task(ctx, spec):
                r"One solution of $\dot q^T \tau = -\gamma T$ (any torque orthogonal to $\dot q$ may be added).",
                bodies=[b.name for b in a.robot.bodies])
     a.answer("tau_decay", tau)
-    q = a.configuration("at")
+    q = a.coordinate_values("at")
     if q:
-        dq = a.configuration("velocity", prefix="d")
+        dq = a.coordinate_values("velocity", prefix="d")
         values = {**a.parameter_values(), **q, **{s: 0.0 for s in a.dq}, **dq}
         tv = np.array(tau.subs(values).evalf(), dtype=float).reshape(-1)
         a.ctx.step("At the initial state", rf"\tau(0) = {a.L(sp.Matrix(np.round(tv, 4)))}", "With the exercise's numbers [N m].")

@@ -32,7 +32,7 @@ from ..kinematics import Kinematics
 from ..latex import mat, sig, vec
 from ..steps import to_latex
 from . import task
-from .kinematic import data
+from .context import TaskView
 
 _AXES = {"x": 0, "y": 1, "z": 2}
 
@@ -60,7 +60,7 @@ def _names(d, spec, key, allowed, what):
 @task("calibration")
 def calibration_task(ctx, spec):
     """Calibration regressor and least-squares estimate (see the module docstring)."""
-    d = data(ctx)
+    d = TaskView(ctx)
     robot = d.robot
     coords = list(robot.coordinates)
     params = _names(d, spec, "parameters", list(robot.parameters), "robot parameters")

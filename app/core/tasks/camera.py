@@ -49,7 +49,7 @@ from ..newton_euler import NewtonEuler, NewtonEulerError
 from ..robot import elementary_rotation
 from ..steps import to_latex
 from . import task
-from .kinematic import data
+from .context import TaskView
 
 
 def _fail(ctx, option, what):
@@ -203,7 +203,7 @@ def _features(ctx, d, ne, q, spec, world, lam):
 @task("visual_servoing")
 def visual_servoing_task(ctx, spec):
     """Norm-of-the-feature-error task on a robot carrying a camera (see the module docstring)."""
-    d = data(ctx)
+    d = TaskView(ctx)
     robot = ctx.robot
     q = d.configuration(spec.get("q"))
     lam = d.number(spec.get("focal", 1.0), "visual_servoing.focal")

@@ -45,7 +45,8 @@ from ..exercise import ExerciseError
 from ..expressions import ExpressionError, parse_expression, symbol
 from ..numeric import numeric_function
 from . import task
-from .underactuated import Model, _inverse
+from .context import TaskView
+from .underactuated import _inverse
 
 _AXES = ("x", "y", "z")
 
@@ -86,7 +87,7 @@ def _pole_rows(kp, kd):
 @task("cartesian_computed_torque")
 def cartesian_computed_torque_task(ctx, spec):
     """Feedback linearization in Cartesian space (see the module docstring)."""
-    m = Model(ctx)
+    m = TaskView(ctx)
     comps = list(spec.get("components", ["x", "y"]))
     if not set(comps) <= set(_AXES):
         raise ExerciseError("cartesian_computed_torque.components: a list among x, y, z")

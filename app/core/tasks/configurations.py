@@ -32,7 +32,8 @@ from ..exercise import ExerciseError
 from ..expressions import symbol
 from ..steps import to_latex
 from . import task
-from .analysis import _wrap_angle, tidy
+from .analysis import _wrap_angle
+from .context import tidy_cancelled
 
 
 def _matrix(ctx, raw, where: str) -> sp.Matrix:
@@ -60,7 +61,7 @@ def _matrix(ctx, raw, where: str) -> sp.Matrix:
 def _product_form(expr) -> sp.Expr:
     """The canonical trigonometric form, its sums of sines/cosines as products (sum-to-product),
     then factored."""
-    return sp.factor(TR9(tidy(expr)))
+    return sp.factor(TR9(tidy_cancelled(expr)))
 
 
 def _solve_factor(factor, coords: List[sp.Symbol], angles, numbers) -> List[List[sp.Expr]]:

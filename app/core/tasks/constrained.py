@@ -63,9 +63,10 @@ from ..mathtext import symbols_text
 from ..numeric import numeric_function
 from ..steps import to_latex
 from . import task
-from .underactuated import _PROFILES, Model, _given_values, _inverse
+from .context import TaskView
+from .underactuated import _PROFILES, _given_values, _inverse
 
-def _point_position(m: Model, point, where: str) -> sp.Matrix:
+def _point_position(m: TaskView, point, where: str) -> sp.Matrix:
     try:
         body, local = jac.point_location(m.robot, point)
     except UserError as exc:
@@ -76,7 +77,7 @@ def _point_position(m: Model, point, where: str) -> sp.Matrix:
 _PSEUDO = ["v"] + [f"v{i}" for i in range(1, 10)]
 
 
-def _L(m: Model, expr) -> str:
+def _L(m: TaskView, expr) -> str:
     """LaTeX with the pseudo-velocities dotted like the coordinates (dv1 -> v'_1)."""
     return to_latex(expr, list(m.coords) + _PSEUDO)
 
@@ -85,7 +86,7 @@ def _names(prefix: str, count: int) -> List[sp.Symbol]:
     return [symbol(prefix)] if count == 1 else [symbol(f"{prefix}{i + 1}") for i in range(count)]
 
 
-def _constraint(ctx, m: Model, spec) -> sp.Matrix:
+def _constraint(ctx, m: TaskView, spec) -> sp.Matrix:
     extra = {}
     if spec.get("point"):
         pos = _point_position(m, spec["point"], "reduced_dynamics.point")
@@ -102,7 +103,7 @@ def _constraint(ctx, m: Model, spec) -> sp.Matrix:
         raise ExerciseError(f"reduced_dynamics.constraint: {exc}") from None
 
 
-def _completion_rows(ctx, m: Model, spec, data) -> sp.Matrix:
+def _completion_rows(ctx, m: TaskView, spec, data) -> sp.Matrix:
     if "D" in spec:
         rows = spec["D"]
         rows = rows if rows and isinstance(rows[0], list) else [rows]
@@ -136,7 +137,7 @@ def reduced_dynamics_task(ctx, spec):
     """Dynamics under holonomic constraints (see the module docstring)."""
     if spec.get("suffix"):
         ctx = _Suffixed(ctx, str(spec["suffix"]))
-    m = Model(ctx)
+    m = TaskView(ctx)
     n = len(m.coords)
     generic = spec.get("inertia") == "generic"
     if spec.get("inertia") not in (None, "generic", "robot"):
@@ -399,7 +400,7 @@ def _input_distribution(ctx, m, spec, t):
                  "Rest to rest with every input at its bound, accelerating for half the time and braking for the other half.")
 
 
-def _evaluate_reduced(ctx, m: Model, spec, terms):
+def _evaluate_reduced(ctx, m: TaskView, spec, terms):
     """Answers at one state: the configuration (given, or placing a point by numeric inverse
     kinematics), the desired pseudo-acceleration (given, or from a rest-to-rest timing law)."""
     from scipy.optimize import least_squares

@@ -61,7 +61,7 @@ from ..robot import KNOWN_KINDS
 from ..steps import to_latex
 from ..trig import TrigPoly
 from . import task
-from .underactuated import Model
+from .context import TaskView
 
 TERMS = ("inertia", "coriolis", "gravity", "spring", "friction")
 
@@ -79,7 +79,7 @@ def law_symbols(coords: Sequence[str]) -> Dict[str, sp.Matrix]:
             "kp": vec("kp{i}"), "kd": vec("kd{i}"), "lam": vec("lambda{i}")}
 
 
-def latex_law(m: Model, expr) -> str:
+def latex_law(m: TaskView, expr) -> str:
     """LaTeX with dots on error derivatives and hats on estimates."""
     extra = [s.name for s in sp.sympify(expr).free_symbols if re.fullmatch(r"e\d+", s.name)]
     out = to_latex(expr, list(m.coords) + extra)
@@ -109,7 +109,7 @@ def _monomials(expr, gens) -> Dict[tuple, sp.Expr]:
     return {mono: c for mono, c in poly.terms()}
 
 
-def parametrize(m: Model, coefficients: Optional[Sequence] = None, known: Optional[Sequence[str]] = None,
+def parametrize(m: TaskView, coefficients: Optional[Sequence] = None, known: Optional[Sequence[str]] = None,
                 terms: Sequence[str] = TERMS, input_gain=None) -> LinearParametrization:
     """Y, Y_r with Y a = the chosen terms of the model (divided by the input gain, if any)."""
     robot = m.robot
@@ -232,7 +232,7 @@ def _options(spec):
 @task("parametrization")
 def parametrization_task(ctx, spec):
     """Linear parametrization in given coefficients (see the module docstring)."""
-    m = Model(ctx)
+    m = TaskView(ctx)
     par = parametrize(m, **_options(spec))
     sfx = str(spec.get("suffix", ""))
     a = sp.Matrix(par.a)
@@ -265,7 +265,7 @@ def parametrization_task(ctx, spec):
 @task("adaptive_law")
 def adaptive_law_task(ctx, spec):
     """Slotine-Li adaptive tracking law (see the module docstring)."""
-    m = Model(ctx)
+    m = TaskView(ctx)
     par = parametrize(m, **_options(spec))
     p = len(par.a)
     est = spec.get("estimate")
@@ -337,7 +337,7 @@ def adaptive_law_task(ctx, spec):
 @task("computed_torque")
 def computed_torque_task(ctx, spec):
     """Computed-torque tracking law (see the module docstring)."""
-    m = Model(ctx)
+    m = TaskView(ctx)
     s = law_symbols(m.coords)
     form = spec.get("form", "feedback_linearization")
     Kp, Kd = sp.diag(*s["kp"]), sp.diag(*s["kd"])
@@ -363,7 +363,7 @@ def computed_torque_task(ctx, spec):
 @task("desired_torque")
 def desired_torque_task(ctx, spec):
     """Nominal torque along q_d(t) (see the module docstring)."""
-    m = Model(ctx)
+    m = TaskView(ctx)
     traj = spec.get("trajectory")
     if not isinstance(traj, dict) or set(traj) != set(m.coords):
         raise ExerciseError(f"desired_torque.trajectory: give an expression of t for each of {m.coords}")
@@ -435,7 +435,7 @@ def _abs_bound(expr) -> sp.Expr:
 @task("regulation")
 def regulation_task(ctx, spec):
     """Regulation laws for a constant q_d (see the module docstring)."""
-    m = Model(ctx)
+    m = TaskView(ctx)
     s = law_symbols(m.coords)
     Kp, Kd = sp.diag(*s["kp"]), sp.diag(*s["kd"])
     e = s["q_d"] - m.q

@@ -30,15 +30,15 @@ from ..expressions import symbol
 from ..latex import num, vec
 from ..numeric import NumericModel, numeric_function
 from . import task
-from .kinematic import data
-from .underactuated import Model, _elastic_pairs, _linear_stiffness
+from .context import TaskView
+from .underactuated import _elastic_pairs, _linear_stiffness
 
 
 @task("elastic_impedance")
 def elastic_impedance_task(ctx, spec):
     """Cartesian impedance of an elastic-joint robot (see the module docstring)."""
-    m = Model(ctx)
-    d = data(ctx)
+    m = TaskView(ctx)
+    d = TaskView(ctx)
     pairs = _elastic_pairs(m)
     if not pairs:
         raise ExerciseError("elastic_impedance: the robot has no elastic joints (motor and link coordinates)")

@@ -32,17 +32,17 @@ from ..exercise import ExerciseError
 from ..expressions import symbol
 from ..steps import to_latex
 from . import task
-from .underactuated import Model
+from .context import TaskView
 
 
-def _state(m: Model, spec, key, symbols):
+def _state(m: TaskView, spec, key, symbols):
     raw = spec.get(key) or {}
     if not isinstance(raw, dict) or not set(map(str, raw)) <= set(m.coords):
         raise ExerciseError(f"energy.{key}: a mapping coordinate -> value ({', '.join(m.coords)})")
     return sp.Matrix([m.ctx.expr(raw[c], f"energy.{key}.{c}") if c in raw else s for c, s in zip(m.coords, symbols)])
 
 
-def _vector(m: Model, raw, key):
+def _vector(m: TaskView, raw, key):
     if not isinstance(raw, list) or len(raw) != len(m.coords):
         raise ExerciseError(f"energy.{key}: a list of {len(m.coords)} values, one per coordinate")
     return sp.Matrix([m.ctx.expr(v, f"energy.{key}") for v in raw])
@@ -51,7 +51,7 @@ def _vector(m: Model, raw, key):
 @task("energy")
 def energy_task(ctx, spec):
     """Energy rates, fastest energy decrease, kinetic energy by Newton-Euler (module docstring)."""
-    m = Model(ctx)
+    m = TaskView(ctx)
     sfx = str(spec.get("suffix", ""))
     fixed = m.mapping_of_parameters(spec.get("substitute"), "energy.substitute")
     q, dq = _state(m, spec, "at", list(m.q)), _state(m, spec, "velocity", list(m.dq))
@@ -114,7 +114,7 @@ def energy_task(ctx, spec):
         ctx.answer("T_newton_euler" + sfx, T_ne)
 
 
-def _hamiltonian(ctx, m: Model, fixed, sfx: str) -> None:
+def _hamiltonian(ctx, m: TaskView, fixed, sfx: str) -> None:
     """H = 1/2 p^T M^-1 p + U with p = M q', its gradients, and Hamilton's equations checked against
     the Lagrangian model (p' = M q'' + M' q' with q'' = M^-1 (u - n)) at random points (seed 0)."""
     import numpy as np

@@ -28,7 +28,8 @@ from ..exercise import ExerciseError
 from ..expressions import symbol
 from ..numeric import numeric_function
 from . import task
-from .underactuated import Model, _given_values
+from .context import TaskView
+from .underactuated import _given_values
 
 
 def _real_solution(eqs, unknowns, numbers):
@@ -54,7 +55,7 @@ def _real_solution(eqs, unknowns, numbers):
 def static_equilibrium_task(ctx, spec):
     """Equilibria with passive coordinates and springs, and the holding input (module docstring)."""
     from scipy.optimize import fsolve
-    m = Model(ctx)
+    m = TaskView(ctx)
     fixed = {k: sp.nsimplify(v, rational=True) if v.is_Float else v
              for k, v in m.mapping(spec.get("fixed"), "static_equilibrium.fixed").items()}
     params = m.mapping_of_parameters(spec.get("substitute"), "static_equilibrium.substitute")

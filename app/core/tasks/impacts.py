@@ -36,7 +36,7 @@ from ..expressions import ExpressionError, parse_expression, symbol
 from ..latex import num, vec
 from ..steps import to_latex
 from . import task
-from .kinematic import data
+from .context import TaskView
 
 
 def _expr(value, where):
@@ -94,7 +94,7 @@ def impact_task(ctx, spec):
 @task("gravity_learning")
 def gravity_learning_task(ctx, spec):
     """Iterative feedforward learning of the gravity torque for regulation (see the module docstring)."""
-    d = data(ctx)
+    d = TaskView(ctx)
     robot = ctx.robot
     num_model = ctx.numeric
     q_d = d.array(spec.get("q_d"), "gravity_learning.q_d").reshape(-1)

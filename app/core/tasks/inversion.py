@@ -1,5 +1,5 @@
 """Higher-order inversion of differential kinematics, and task velocities of joint motions.
-Values follow the conventions of ``kinematic`` (TaskData).
+Values follow the conventions of ``context`` (TaskView).
 
 ``inversion``: joint acceleration (``order: 2``, default) or jerk (``order: 3``) realizing a task
   acceleration or jerk ``task`` for the symbolic Jacobian of an earlier ``jacobian`` task, at its
@@ -26,7 +26,7 @@ from .. import redundancy as red
 from ..latex import mat, num, sig, vec
 from ..steps import symbol_latex
 from . import task
-from .kinematic import data
+from .context import TaskView
 
 
 def _time_derivative(J: sp.Matrix, robot) -> sp.Matrix:
@@ -40,14 +40,14 @@ def _time_derivative(J: sp.Matrix, robot) -> sp.Matrix:
 @task("inversion")
 def inversion_task(ctx, spec):
     """Second-order (acceleration) or jerk-level inversion with a preferred null-space motion."""
-    d = data(ctx)
+    d = TaskView(ctx)
     robot = d.robot
     order = int(spec.get("order", 2))
     if order not in (2, 3):
         raise d._fail("inversion.order: 2 (accelerations) or 3 (jerks)")
     name = spec.get("name", "ddq" if order == 2 else "dddq")
     ref = spec.get("jacobian", "J")
-    obj = d.store.get(ref) if isinstance(ref, str) else None
+    obj = d.objects.get(ref) if isinstance(ref, str) else None
     if obj is None or obj["sym"] is None or obj["q"] is None:
         raise d._fail("inversion.jacobian: name an earlier jacobian task defined on the robot (its derivatives are needed)")
     J_sym, q = obj["sym"], obj["q"]
@@ -109,7 +109,7 @@ def inversion_task(ctx, spec):
 @task("task_velocity")
 def task_velocity_task(ctx, spec):
     """v = J q' for a Jacobian and a joint velocity (e.g. the velocity of a second point)."""
-    d = data(ctx)
+    d = TaskView(ctx)
     name = spec.get("name", "v")
     J = d.jacobian(spec.get("jacobian", "J"))
     dq = d.array(spec["velocity"], "velocity").reshape(-1)
@@ -142,7 +142,7 @@ def pinv_vs_transpose_task(ctx, spec):
     ``<name>_acute_A``, ``<name>_acute_B``, ``<name>_exact_A``, ``<name>_exact_B`` (yes/no), and with
     ``random``: ``<name>_random_acute`` (all angles <= pi/2), ``<name>_random_range_exact_A`` (J J^# x = x
     for every x in the range), ``<name>_random_range_exact_B_count`` (instances where J J^T x = x)."""
-    d = data(ctx)
+    d = TaskView(ctx)
     name = spec.get("name", "cmp")
     J = d.jacobian(spec.get("jacobian", "J"))
     xd = d.array(spec["task"], "task").reshape(-1)

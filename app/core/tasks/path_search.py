@@ -31,7 +31,7 @@ import sympy as sp
 from .. import roadmap as rm
 from ..latex import num
 from . import task
-from .kinematic import data
+from .context import TaskView
 
 UNIT_SQUARE = [[0, 0], [1, 0], [1, 1], [0, 1]]
 
@@ -66,7 +66,7 @@ def _highlight(points, labels=None):
 @task("cell_decomposition")
 def cell_decomposition_task(ctx, spec):
     """Regular cell decomposition, adjacency graph, channels and shortest path (module docstring)."""
-    d = data(ctx)
+    d = TaskView(ctx)
     ws = d.array(spec.get("workspace"), "cell_decomposition.workspace").reshape(-1)
     if ws.size != 3 or ws[2] <= 0:
         raise d._fail("cell_decomposition.workspace: expected [x0, y0, side]")
@@ -133,7 +133,7 @@ def cell_decomposition_task(ctx, spec):
 @task("voronoi_roadmap")
 def voronoi_roadmap_task(ctx, spec):
     """Generalized Voronoi roadmap, retraction of start and goal, shortest path (module docstring)."""
-    d = data(ctx)
+    d = TaskView(ctx)
     room = tuple(d.array(spec.get("room"), "voronoi_roadmap.room").reshape(-1))
     points = _points(d, spec.get("points", []), "voronoi_roadmap.points") if spec.get("points") else []
     polygons = _polygons(d, spec.get("polygons"), "voronoi_roadmap.polygons")

@@ -1,5 +1,5 @@
 """Pointing a planar end effector at a (moving) target. Values follow the conventions of
-``kinematic`` (TaskData).
+``context`` (TaskView).
 
 ``pointing``: the end-effector axis (orientation alpha(q) of the link holding ``point``, default
   ee) should point at a target p_t moving with p'_t. The desired orientation
@@ -22,13 +22,13 @@ import numpy as np
 from .. import jacobians as jac
 from ..latex import mat, num, vec
 from . import task
-from .kinematic import data
+from .context import TaskView
 
 
 @task("pointing")
 def pointing_task(ctx, spec):
     """Task Jacobian and task velocity for pointing the end effector at a target."""
-    d = data(ctx)
+    d = TaskView(ctx)
     robot = d.robot
     if not robot.is_planar:
         raise d._fail("pointing: planar robots only (the pointing direction is a planar angle)")
@@ -68,7 +68,7 @@ def pointing_task(ctx, spec):
              r"$\dot\alpha_d = J_{\alpha_d} (\dot p - \dot p_t)$, so $\dot\alpha = \dot\alpha_d$ is $J_r \dot q = J_{\alpha_d} \dot p_t$.")
     ctx.step("Task velocity", rf"J_{{\alpha_d}} \dot p_t - k\,e_r = {num(ff)} - {num(k)} \cdot ({num(e)}) = {num(t)}",
              r"With $J_r \dot q$ equal to it the error obeys $\dot e_r = -k e_r$.")
-    d.store[name] = {"sym": None, "num": Jr, "r": None, "q": q}
+    d.objects[name] = {"sym": None, "num": Jr, "r": None, "q": q}
     ctx.answer(f"{name}_num", Jr)
     ctx.answer(f"{name}_alpha", alpha)
     ctx.answer(f"{name}_alpha_d", alpha_d)

@@ -27,7 +27,7 @@ from ..errors import UserError
 from ..latex import mat, num, vec
 from ..newton_euler import NewtonEuler, Wrench
 from . import task
-from .kinematic import data
+from .context import TaskView
 
 
 def _vector(d, spec, key, n, default=None):
@@ -42,7 +42,7 @@ def _vector(d, spec, key, n, default=None):
 @task("newton_euler")
 def newton_euler_task(ctx, spec):
     """u = NE(q, q', q'') (see the module docstring)."""
-    d = data(ctx)
+    d = TaskView(ctx)
     robot = ctx.robot
     name = str(spec.get("name", "u"))
     q = d.configuration(spec.get("q"))

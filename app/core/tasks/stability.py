@@ -49,8 +49,7 @@ from ..kinematics import Kinematics
 from ..steps import to_latex
 from . import task
 from .analysis import _EquilibriumSolver, _wrap_angle
-from .kinematic import data
-from .underactuated import tidy_matrix
+from .context import TaskView, tidy_quotient_matrix
 
 
 def _neat(e):
@@ -64,7 +63,7 @@ class _Loop:
 
     def __init__(self, ctx, spec, kind: str):
         self.ctx, self.spec, self.kind = ctx, spec, kind
-        self.d = data(ctx)
+        self.d = TaskView(ctx)
         self.robot = ctx.robot
         self.dyn = ctx.dynamics()
         self.q, self.dq = list(self.robot.q), list(self.robot.dq)
@@ -367,7 +366,7 @@ def lyapunov_task(ctx, spec):
     if spec.get("closed_loop"):
         rhs = F - lp.C * sp.Matrix(lp.dq)
         exact = ly.solve_linear_exactly(lp.M, rhs)
-        ddq = tidy_matrix(exact if exact is not None else lp.M.LUsolve(rhs))
+        ddq = tidy_quotient_matrix(exact if exact is not None else lp.M.LUsolve(rhs))
         lp.ctx.step("Closed-loop accelerations", rf"\ddot q = M^{{-1}}(F - C\dot q) = {lp.L(ddq)}", "", joints=joints)
         lp.answer("closed_loop", ddq)
 
@@ -495,7 +494,7 @@ def gravity_gradient_symbolic_task(ctx, spec):
     from ..norm_bounds import BoundError, lambda_max_2x2, norm_bound
     lp = _Loop(ctx, spec, "gravity_gradient_symbolic")
     g = (lp.g + lp.k).applyfunc(sp.expand)
-    A = tidy_matrix(g.jacobian(sp.Matrix(lp.q)))
+    A = tidy_quotient_matrix(g.jacobian(sp.Matrix(lp.q)))
     ranges = {}
     for c, lim in (spec.get("range") or {}).items():
         if c not in lp.coords or not isinstance(lim, list) or len(lim) != 2:

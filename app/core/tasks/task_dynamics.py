@@ -24,7 +24,8 @@ import sympy as sp
 from ..exercise import ExerciseError
 from ..kinematics import Kinematics
 from . import task
-from .underactuated import Model, _inverse, _time_derivative
+from .context import TaskView
+from .underactuated import _inverse, _time_derivative
 
 _AXES = {"x": 0, "y": 1, "z": 2}
 
@@ -32,7 +33,7 @@ _AXES = {"x": 0, "y": 1, "z": 2}
 @task("task_acceleration")
 def task_acceleration_task(ctx, spec):
     """Task acceleration and task inverse dynamics with a contact force (module docstring)."""
-    m = Model(ctx)
+    m = TaskView(ctx)
     name = spec.get("point", "ee")
     pt = m.robot.points.get(name)
     comps = spec.get("components", ["x", "y"])

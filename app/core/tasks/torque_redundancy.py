@@ -1,6 +1,6 @@
 """Redundancy resolution at velocity, acceleration and torque level with the robot's own model
 (core: app.core.dynamic_redundancy), symbolic or at a numeric state. Values follow the
-conventions of ``kinematic`` (TaskData).
+conventions of ``context`` (TaskView).
 
 ``dynamic_redundancy``: for the symbolic Jacobian of an earlier ``jacobian`` task (its task
   function f(q) gives the feedback terms):
@@ -51,8 +51,7 @@ from ..latex import mat, num, sig, vec
 from ..numeric import compiled_function
 from ..steps import to_latex
 from . import task
-from .kinematic import data
-from .underactuated import tidy_matrix
+from .context import TaskView, tidy_quotient_matrix
 
 _MODEL_WEIGHTS = ("inertia", "inverse_inertia", "inverse_inertia_squared")
 
@@ -64,11 +63,11 @@ class _Problem:
 
     def __init__(self, ctx, spec):
         self.ctx, self.spec = ctx, spec
-        self.d = data(ctx)
+        self.d = TaskView(ctx)
         self.robot = ctx.robot
         self.symbolic = bool(spec.get("symbolic", False))
         ref = spec.get("jacobian", "J")
-        obj = self.d.store.get(ref) if isinstance(ref, str) else None
+        obj = self.d.objects.get(ref) if isinstance(ref, str) else None
         if obj is None or obj["sym"] is None or obj["q"] is None:
             raise self.d._fail("dynamic_redundancy.jacobian: name an earlier jacobian task defined on the robot")
         self.J_sym, self.f_sym, self.q0 = obj["sym"], obj["r"], obj["q"]
@@ -380,7 +379,7 @@ def _limits(p: _Problem, spec, name: str, value):
     for key, target in (spec.get("limits") or {}).items():
         s = sp.Symbol(str(key), real=True)
         to = sp.oo if str(target) in ("oo", "inf") else p.expr(target, f"limits.{key}")
-        out = tidy_matrix(sp.Matrix(value).applyfunc(lambda e: sp.limit(e, s, to)))
+        out = tidy_quotient_matrix(sp.Matrix(value).applyfunc(lambda e: sp.limit(e, s, to)))
         p.ctx.step(f"Limit for ${sp.latex(s)} \\to {sp.latex(to)}$", rf"\lim_{{{sp.latex(s)} \to {sp.latex(to)}}} = {p.show(out)}", "")
         p.ctx.answer(f"{name}_limit_{key}", out)
 

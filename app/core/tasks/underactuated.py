@@ -47,156 +47,26 @@ Task kinds (options -> answers):
 
 >>> from app.core.expressions import symbol
 >>> q2 = symbol("q2")
->>> tidy((sp.cos(q2)**2 + sp.sin(q2)**2) / symbol("m"))
+>>> tidy_quotient((sp.cos(q2)**2 + sp.sin(q2)**2) / symbol("m"))
 1/m
 """
 from __future__ import annotations
 
-from typing import Dict, List, Sequence
+from typing import Dict
 
 import sympy as sp
 
 from ..coordinates import in_coordinates
-from ..dynamics import natural_angles, pretty
 from ..exercise import ExerciseError
 from ..expressions import symbol
 from ..mathtext import symbols_text
-from ..kinematics import Kinematics
 from ..steps import to_latex
 from ..trig import TrigPoly
 from . import task
+from .context import TaskView, tidy_quotient
 
 
 # ====================================================================== shared helpers
-def tidy(expr, angles: Sequence = ()) -> sp.Expr:
-    """Compact form of a rational trigonometric expression: numerator and denominator through the
-    exact canonical form; a denominator free of trigonometric terms divides each coefficient."""
-    expr = sp.sympify(expr)
-    if expr.is_number or not expr.free_symbols:
-        return expr
-    num, den = sp.fraction(sp.together(expr))
-    num_tp = TrigPoly.from_expr(sp.expand(num)).expand()
-    den_tp = TrigPoly.from_expr(sp.expand(den)).expand()
-    common = sp.gcd_list(list(num_tp.terms.values()) + list(den_tp.terms.values()))
-    if common != 0 and common != 1:
-        num_tp = TrigPoly({k: sp.cancel(c / common) for k, c in num_tp.terms.items()})
-        den_tp = TrigPoly({k: sp.cancel(c / common) for k, c in den_tp.terms.items()})
-    if all(not freq for (freq, _kind) in den_tp.terms):
-        d = den_tp.to_expr()
-        if d == 0:
-            raise ZeroDivisionError("denominator is zero")
-        if d.is_number:
-            return pretty(TrigPoly({k: c / d for k, c in num_tp.terms.items()}), angles)
-        # polynomial part + remainder / d, the way the results are written by hand
-        gens = sorted(d.free_symbols, key=lambda x: x.name)
-        quot, rem = {}, {}
-        for k, c in num_tp.terms.items():
-            qk, rk = sp.div(sp.expand(c), d, *gens)
-            quot[k], rem[k] = qk, rk
-        rem_tp = TrigPoly(rem)
-        whole = pretty(TrigPoly(quot), angles)
-        return whole + (pretty(rem_tp, angles) / d if rem_tp.terms else 0)
-    return pretty(num_tp, angles) / pretty(den_tp, angles)
-
-
-def tidy_matrix(mat, angles: Sequence = ()) -> sp.Matrix:
-    return sp.Matrix(mat).applyfunc(lambda e: tidy(e, angles))
-
-
-class Model:
-    """The model terms a task needs, with the printer and the robot's natural angles."""
-
-    def __init__(self, ctx):
-        self.ctx = ctx
-        self.robot = ctx.robot
-        self.dyn = ctx.dynamics()
-        self.q = sp.Matrix(self.robot.q)
-        self.dq = sp.Matrix(self.robot.dq)
-        self.ddq = sp.Matrix(self.robot.ddq)
-        self.M = self.dyn.M
-        self.C = self.dyn.C
-        self.n = self.dyn.c + self.dyn.g + self.dyn.spring + self.dyn.friction
-        self.angles = natural_angles(Kinematics(self.robot))
-        self.coords = list(self.robot.coordinates)
-
-    def L(self, expr) -> str:
-        return to_latex(expr, self.coords)
-
-    def tidy(self, expr):
-        return tidy(expr, self.angles)
-
-    def tidy_matrix(self, mat):
-        return tidy_matrix(mat, self.angles)
-
-    def indices(self, names, where: str) -> List[int]:
-        if isinstance(names, str):
-            names = [names]
-        if not isinstance(names, (list, tuple)):
-            raise ExerciseError(f"{where}: expected a list of coordinate names, got {names!r}")
-        out = []
-        for name in names:
-            if name not in self.coords:
-                raise ExerciseError(f"{where}: '{name}' is not a coordinate of {self.robot.name} "
-                                    f"({', '.join(self.coords)})")
-            out.append(self.coords.index(name))
-        return out
-
-    def bodies_of(self, idx: Sequence[int]) -> List[str]:
-        """Bodies whose joint is moved by the given coordinates (for highlighting)."""
-        syms = {self.q[i] for i in idx}
-        return [b.name for b in self.robot.bodies if b.joint.value.free_symbols & syms]
-
-    def expr(self, value, where: str, allow_coordinates=True):
-        e = self.ctx.expr(value, where)
-        return e
-
-    def new_symbols(self, names, where: str) -> List[sp.Symbol]:
-        taken = set(self.robot.parameters) | set(self.coords)
-        taken |= {"d" + c for c in self.coords} | {"dd" + c for c in self.coords}
-        out = []
-        for name in names:
-            if not isinstance(name, str) or not name.isidentifier():
-                raise ExerciseError(f"{where}: '{name}' is not a valid name")
-            if name in taken:
-                raise ExerciseError(f"{where}: name '{name}' is already used by the robot {self.robot.name}")
-            out.append(symbol(name))
-        return out
-
-    def mapping(self, spec, where: str, keys="coordinates") -> Dict[sp.Symbol, sp.Expr]:
-        """{name: expression} -> {symbol: sympy expression}; names must be coordinates (or their
-        velocities when keys == 'state')."""
-        if spec is None:
-            return {}
-        if not isinstance(spec, dict):
-            raise ExerciseError(f"{where}: expected a mapping name: value")
-        allowed = set(self.coords)
-        if keys == "state":
-            allowed |= {"d" + c for c in self.coords}
-        out = {}
-        for name, value in spec.items():
-            if name not in allowed:
-                raise ExerciseError(f"{where}: '{name}' is not a coordinate{' or velocity' if keys == 'state' else ''} "
-                                    f"of {self.robot.name}")
-            out[symbol(name)] = self.ctx.expr(value, f"{where}.{name}")
-        return out
-
-    def mapping_of_parameters(self, spec, where: str) -> Dict[sp.Symbol, sp.Expr]:
-        """{robot parameter: expression} (e.g. ``{g0: 0}``) as a substitution."""
-        if not spec:
-            return {}
-        if not isinstance(spec, dict) or not set(map(str, spec)) <= set(self.robot.parameters):
-            raise ExerciseError(f"{where}: expected a mapping robot parameter -> value "
-                                f"(parameters: {', '.join(self.robot.parameters)})")
-        return {symbol(str(k)): self.ctx.expr(v, f"{where}.{k}") for k, v in spec.items()}
-
-    def selection(self, actuated: Sequence[bool]) -> sp.Matrix:
-        cols = [i for i, a in enumerate(actuated) if a]
-        S = sp.zeros(len(actuated), len(cols))
-        for k, i in enumerate(cols):
-            S[i, k] = 1
-        return S
-
-
 _PROFILES = {   # rest-to-rest timing laws s(sigma) / Delta, sigma = t / T in [0, 1]
     "cubic": lambda s: 3 * s ** 2 - 2 * s ** 3,
     "quintic": lambda s: 10 * s ** 3 - 15 * s ** 4 + 6 * s ** 5,
@@ -230,7 +100,7 @@ def _inverse(mat: sp.Matrix) -> sp.Matrix:
 @task("pfl")
 def pfl_task(ctx, spec):
     """Partial feedback linearization (see the module docstring for options and answers)."""
-    m = Model(ctx)
+    m = TaskView(ctx)
     n = len(m.coords)
     if "passive" in spec:
         passive = m.indices(spec["passive"], "pfl.passive")
@@ -339,7 +209,7 @@ def pfl_task(ctx, spec):
 @task("linearization")
 def linearization_task(ctx, spec):
     """Linear approximation about an equilibrium (see the module docstring)."""
-    m = Model(ctx)
+    m = TaskView(ctx)
     at = m.mapping(spec.get("at"), "linearization.at")
     zero_v = {d: 0 for d in m.dq}
     robot = m.robot
@@ -431,7 +301,7 @@ def _sort_solutions(rows, values):
 @task("steady_rotation")
 def steady_rotation_task(ctx, spec):
     """Steady rotations at constant speed (see the module docstring)."""
-    m = Model(ctx)
+    m = TaskView(ctx)
     spin = m.mapping(spec.get("spin"), "steady_rotation.spin")
     if not spin:
         raise ExerciseError("steady_rotation.spin: give at least one coordinate and its constant speed")
@@ -462,7 +332,7 @@ def steady_rotation_task(ctx, spec):
             sols = sp.solve(eqs, unknowns, dict=True)
         except NotImplementedError:
             sols = []
-        rows = [[tidy(s_.get(u, u)) for u in unknowns] for s_ in sols]
+        rows = [[tidy_quotient(s_.get(u, u)) for u in unknowns] for s_ in sols]
     if not rows:
         raise ExerciseError("steady_rotation: no closed-form solution of the steady-state equations")
     values = {p.symbol: p.value for p in m.robot.parameters.values()}
@@ -481,7 +351,7 @@ def steady_rotation_task(ctx, spec):
 @task("coordinate_change")
 def coordinate_change_task(ctx, spec):
     """Model in new coordinates p = J q (see the module docstring)."""
-    m = Model(ctx)
+    m = TaskView(ctx)
     n = len(m.coords)
     tau = sp.Matrix([symbol(f"tau{i + 1}") for i in range(n)])
     if "torque_map" in spec:
@@ -533,7 +403,7 @@ def coordinate_change_task(ctx, spec):
 @task("accelerations")
 def accelerations_task(ctx, spec):
     """q'' = M^-1 (S u - n) at a state (see the module docstring)."""
-    m = Model(ctx)
+    m = TaskView(ctx)
     state = m.mapping(spec.get("state"), "accelerations.state", keys="state")
     raw = spec.get("inputs") or {}
     if not isinstance(raw, dict):
@@ -554,7 +424,7 @@ def accelerations_task(ctx, spec):
 
 
 # ====================================================================== elastic joints
-def _elastic_pairs(m: Model):
+def _elastic_pairs(m: TaskView):
     """(link index, motor index, springs) for every motor coordinate (one with a rotor inertia)
     tied to one link coordinate by springs whose potential depends on theta - q only: the linear
     spring K (theta - q) and nonlinear ones such as (theta - q)**2 (U = k_n/4 (theta - q)^4)."""
@@ -587,7 +457,7 @@ def _linear_stiffness(springs) -> sp.Expr:
     return sp.expand(K)
 
 
-def _motor_reference(ctx, spec, m: Model, link, mot, qd, th_d_syms):
+def _motor_reference(ctx, spec, m: TaskView, link, mot, qd, th_d_syms):
     """theta_d solving the link equations at rest, g(q_d) + spring forces = 0: in closed form
     when they are linear in theta (theta_d = q_d + K^-1 g(q_d)); with nonlinear springs the real
     root, chosen at the exercise's numbers (q_d from the task's ``q_d``, else the configuration)."""
@@ -631,7 +501,7 @@ def _motor_reference(ctx, spec, m: Model, link, mot, qd, th_d_syms):
 def elastic_joints_task(ctx, spec):
     """Elastic-joint robots: link and motor equations, and the motor PD law with constant gravity
     compensation (see the module docstring)."""
-    m = Model(ctx)
+    m = TaskView(ctx)
     pairs = _elastic_pairs(m)
     if not pairs:
         raise ExerciseError("elastic_joints: the robot has no elastic joint (a spring on theta - q between "
@@ -712,5 +582,5 @@ def elastic_joints_task(ctx, spec):
     ctx.answer("V_dot", V_dot)
 
 
-def latex_law_elastic(m: Model, expr) -> str:
+def latex_law_elastic(m: TaskView, expr) -> str:
     return to_latex(expr, m.coords + [f"{c}_d" for c in m.coords])

@@ -1,6 +1,6 @@
 """Trajectory-planning tasks: timing laws, minimum time under torque bounds, uniform time scaling,
 decoupled minimum-time motions, and Cartesian tracking in a task frame along a straight path.
-Values follow the conventions of ``kinematic`` (TaskData).
+Values follow the conventions of ``context`` (TaskView).
 
 A *law* spec is {type: cubic | quintic | bang_bang | trapezoidal, T, V, A, Ts, ratio (Ts/T)}.
 
@@ -45,7 +45,7 @@ from .. import time_optimal as topt
 from ..errors import UserError
 from ..latex import mat, num, vec
 from . import task
-from .kinematic import data
+from .context import TaskView
 
 
 def _law(d, spec, delta, T=None):
@@ -78,7 +78,7 @@ def _law_answers(ctx, law, prefix=""):
 @task("timing_law")
 def timing_law_task(ctx, spec):
     """A rest-to-rest timing law from its data."""
-    d = data(ctx)
+    d = TaskView(ctx)
     law = _law(d, spec.get("law") or {}, d.number(spec.get("delta", 1.0), "delta"))
     ctx.steps.extend(law.steps(spec.get("unit", "m")))
     _law_answers(ctx, law)
@@ -110,7 +110,7 @@ def _torque_along(d, q0, dq_dir):
 @task("minimum_time")
 def minimum_time_task(ctx, spec):
     """Minimum duration of a rest-to-rest joint motion of a given law class under torque bounds."""
-    d = data(ctx)
+    d = TaskView(ctx)
     q0, delta = _joint_path(d, spec)
     bounds = d.array(spec["torque"], "torque") * np.ones(d.robot.n)
     torque, gravity = _torque_along(d, q0, delta)
@@ -139,7 +139,7 @@ def minimum_time_task(ctx, spec):
 @task("time_scaling")
 def time_scaling_task(ctx, spec):
     """Smallest uniform time scaling that makes a trajectory torque-feasible."""
-    d = data(ctx)
+    d = TaskView(ctx)
     n = d.robot.n
     bounds = d.array(spec["bounds"], "bounds") * np.ones(n)
     T = None
@@ -204,7 +204,7 @@ def time_scaling_task(ctx, spec):
 @task("decoupled_minimum_time")
 def decoupled_minimum_time_task(ctx, spec):
     """Per-joint bang-bang minimum time for a robot with constant diagonal M and constant g."""
-    d = data(ctx)
+    d = TaskView(ctx)
     robot = d.robot
     n = robot.n
     M = d.ctx.numeric.M(np.zeros(n))
@@ -241,7 +241,7 @@ def decoupled_minimum_time_task(ctx, spec):
 @task("cartesian_tracking")
 def cartesian_tracking_task(ctx, spec):
     """Task-frame feedback linearization along a straight path, u(0) and the error at a time."""
-    d = data(ctx)
+    d = TaskView(ctx)
     robot = d.robot
     point = spec.get("point", "ee")
     P0 = d.array(spec["start"], "start").reshape(-1)
@@ -334,7 +334,7 @@ def _path(d, spec):
 @task("path_minimum_time")
 def path_minimum_time_task(ctx, spec):
     """Minimum time along a given path under joint velocity, acceleration and torque bounds."""
-    d = data(ctx)
+    d = TaskView(ctx)
     robot = d.robot
     n = robot.n
     path = _path(d, spec.get("path"))

@@ -1,6 +1,6 @@
 """Contact and force tasks (numeric, at a configuration): static torques, contact-force estimation
 and isolation, collision detection by energy and momentum residuals, impedance gains.
-Values follow the conventions of ``kinematic`` (TaskData).
+Values follow the conventions of ``context`` (TaskView).
 
 ``static_torque``: tau = g(q) (with ``gravity: true``) + sum_k J_k^T F_k for ``forces``, a list of
   {label, point, force} or {label, point, stiffness, target} (a Cartesian spring at rest:
@@ -68,7 +68,7 @@ from .. import jacobians as jac
 from ..errors import UserError
 from ..latex import mat, num, sig, vec
 from . import task
-from .kinematic import data
+from .context import TaskView
 
 
 def _point_name(point) -> str:
@@ -111,7 +111,7 @@ def _highlight_force(label, p, F):
 @task("static_torque")
 def static_torque_task(ctx, spec):
     """tau = g(q) + sum J^T F at a static configuration."""
-    d = data(ctx)
+    d = TaskView(ctx)
     name = spec.get("name", "tau")
     q = d.configuration(spec.get("q"))
     n = d.robot.n
@@ -148,7 +148,7 @@ def static_torque_task(ctx, spec):
 @task("external_torque")
 def external_torque_task(ctx, spec):
     """tau_ext = g(q) - tau at a static equilibrium under the control torque tau."""
-    d = data(ctx)
+    d = TaskView(ctx)
     name = spec.get("name", "tau_ext")
     q = d.configuration(spec.get("q"))
     tau = d.array(spec["torque"], "torque").reshape(-1)
@@ -180,7 +180,7 @@ def _link_length(d, body):
 @task("contact_force")
 def contact_force_task(ctx, spec):
     """Contact force (and point) from the joint torques it produces."""
-    d = data(ctx)
+    d = TaskView(ctx)
     robot = d.robot
     name = spec.get("name", "Fc")
     q = d.configuration(spec.get("q"))
@@ -245,7 +245,7 @@ def contact_force_task(ctx, spec):
 @task("collision_analysis")
 def collision_analysis_task(ctx, spec):
     """Energy- and momentum-based detection and isolation for given contact forces."""
-    d = data(ctx)
+    d = TaskView(ctx)
     q = d.configuration(spec.get("q"))
     dq = d.array(spec.get("velocity", [0] * d.robot.n), "velocity").reshape(-1)
     for k, c in enumerate(spec.get("contacts") or [], 1):
@@ -275,7 +275,7 @@ def collision_analysis_task(ctx, spec):
 @task("impedance_gains")
 def impedance_gains_task(ctx, spec):
     """Stiffness and damping of a desired impedance from its time behaviour (symbolic or numeric)."""
-    d = data(ctx)
+    d = TaskView(ctx)
     mass = spec.get("mass", 1)
 
     def value(x, where):
@@ -315,7 +315,7 @@ def impedance_gains_task(ctx, spec):
 @task("force_capability")
 def force_capability_task(ctx, spec):
     """Largest force norm a point can sustain in every direction under joint torque bounds."""
-    d = data(ctx)
+    d = TaskView(ctx)
     q = d.configuration(spec.get("q"))
     J, p = _point_jacobian(d, spec.get("point", "ee"), q)
     T = d.array(spec["torque"], "torque") * np.ones(d.robot.n)
@@ -334,7 +334,7 @@ def force_capability_task(ctx, spec):
 @task("hybrid_constraints")
 def hybrid_constraints_task(ctx, spec):
     """Natural/artificial constraints in a task frame and the hybrid selection matrices."""
-    d = data(ctx)
+    d = TaskView(ctx)
     robot = d.robot
     name = spec.get("name", "hf")
     axes = {"x": 0, "y": 1, "z": 2}
@@ -415,7 +415,7 @@ def hybrid_constraints_task(ctx, spec):
 def residual_response_task(ctx, spec):
     """Simulated momentum residual after a collision or fault, against its first-order response."""
     from scipy.integrate import solve_ivp
-    d = data(ctx)
+    d = TaskView(ctx)
     robot = d.robot
     n = robot.n
     name = spec.get("name", "r")
@@ -497,7 +497,7 @@ def residual_response_task(ctx, spec):
 @task("hybrid_control")
 def hybrid_control_task(ctx, spec):
     """Task-frame hybrid force/velocity law for a Cartesian robot on a compliant surface."""
-    d = data(ctx)
+    d = TaskView(ctx)
     robot = d.robot
     if robot.n != 2 or not robot.is_planar:
         raise d._fail("hybrid_control: a planar robot with two joints")

@@ -1,6 +1,6 @@
 """Redundancy-resolution tasks (numeric, at a configuration): pseudoinverse and its weighted,
 damped and projected-gradient variants, task priority, reduced gradient, SNS, and the
-weighted-pseudoinverse identities. Values follow the conventions of ``kinematic`` (TaskData).
+weighted-pseudoinverse identities. Values follow the conventions of ``context`` (TaskView).
 
 ``pseudoinverse``: ``jacobian`` (name of a jacobian task or a matrix), ``task`` (vector);
   options ``weights`` (diagonal list, matrix, matrix of expressions of q, or ``inertia`` for
@@ -54,7 +54,7 @@ from .. import redundancy as red
 from ..latex import mat, num, vec
 from ..steps import symbol_latex
 from . import task
-from .kinematic import data
+from .context import TaskView
 
 
 def _bounds(d, spec, n):
@@ -71,7 +71,7 @@ def _gradient(d, spec, q, n, extra=None):
         g = np.asarray(d.ctx.numeric.g(q), float).reshape(-1)
         return g, r"H = U_g(q),\ \nabla_q H = g(q)", float(d.ctx.numeric.energy(q, np.zeros(n))[1])
     if "clearance" in spec:
-        from .contact import _point_jacobian
+        from .contact_forces import _point_jacobian
         c = spec["clearance"]
         center = d.array(c["center"], "gradient.clearance.center").reshape(-1)
         radius = d.number(c.get("radius", 0.0), "gradient.clearance.radius")
@@ -129,7 +129,7 @@ def _weights(d, spec, q, n):
 @task("pseudoinverse")
 def pseudoinverse_task(ctx, spec):
     """q' = J^+ v (+ null-space term), J^+ the plain, weighted or damped pseudoinverse."""
-    d = data(ctx)
+    d = TaskView(ctx)
     name = spec.get("name", "dq")
     J = d.jacobian(spec.get("jacobian", "J"))
     m, n = J.shape
@@ -211,7 +211,7 @@ def _has_text(value) -> bool:
 @task("task_priority")
 def task_priority_task(ctx, spec):
     """Recursive task-priority solution for tasks listed by decreasing priority."""
-    d = data(ctx)
+    d = TaskView(ctx)
     name = spec.get("name", "dq_tp")
     items = spec.get("tasks") or []
     if not items:
@@ -236,7 +236,7 @@ def task_priority_task(ctx, spec):
 @task("reduced_gradient")
 def reduced_gradient_task(ctx, spec):
     """Reduced-gradient solution (minor of largest |det|)."""
-    d = data(ctx)
+    d = TaskView(ctx)
     name = spec.get("name", "dq_rg")
     J = d.jacobian(spec.get("jacobian", "J"))
     v = d.array(spec.get("task", "v"), "task").reshape(-1)
@@ -254,7 +254,7 @@ def reduced_gradient_task(ctx, spec):
 @task("sns")
 def sns_task(ctx, spec):
     """Saturation in the null space at velocity or acceleration level, with its iterations."""
-    d = data(ctx)
+    d = TaskView(ctx)
     name = spec.get("name", "dq_sns")
     J = d.jacobian(spec.get("jacobian", "J"))
     m, n = J.shape
@@ -300,7 +300,7 @@ def _bounds_from_limits(ctx, d, spec, level: str, n: int):
     if T <= 0:
         raise d._fail("sns.limits.sampling_time: must be positive")
     ref = spec.get("jacobian", "J")
-    obj = d.store.get(ref) if isinstance(ref, str) else None
+    obj = d.objects.get(ref) if isinstance(ref, str) else None
     q = d.configuration(spec.get("q")) if "q" in spec or obj is None or obj["q"] is None else obj["q"]
     pos = lim.get("position", "robot")
     if pos == "robot":
@@ -345,7 +345,7 @@ def _bounds_from_limits(ctx, d, spec, level: str, n: int):
 @task("weighted_pinv_identity")
 def weighted_pinv_identity_task(ctx, spec):
     """J_W^# = W^-1 J^T (J W^-1 J^T)^-1 = W^(-1/2) (J W^(-1/2))^#, and the identities it satisfies."""
-    d = data(ctx)
+    d = TaskView(ctx)
     name = spec.get("name", "JW")
     J = d.jacobian(spec.get("jacobian", "J"))
     W = red.weighted_matrix(d.array(spec["weights"], "weights"), J.shape[1])
@@ -370,7 +370,7 @@ def fastest_stop_task(ctx, spec):
     """Stop the end effector as fast as possible along its current direction with bounded joint
     accelerations: p'' = -lambda p', u = J^# (p'' - J' q') = lambda a + b, the largest feasible
     lambda (a one-dimensional linear program)."""
-    d = data(ctx)
+    d = TaskView(ctx)
     name = spec.get("name", "u")
     ref = spec.get("jacobian", "J")
     J = d.jacobian(ref)
