@@ -11,7 +11,7 @@ the tests, which also check that these entries agree with the loaded files.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import List
+from typing import Callable, List, Optional, Sequence
 
 import yaml
 
@@ -26,6 +26,29 @@ _SHIPPED_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 
 def _load_shipped(path: Path):
     return yaml.load(path.read_text(encoding="utf-8"), Loader=_SHIPPED_LOADER)
+
+
+def named_file(name_or_path, shipped: Path, suffixes: Sequence[str],
+               error: Callable[[str], Exception]) -> Optional[Path]:
+    """The file a user names: a path when the text ends in one of ``suffixes`` or names an existing
+    file (``error`` raised when it does not exist), else the shipped file ``shipped`` when it
+    exists, else None (the caller says what it knows). The one rule of robots and exercises.
+
+    >>> named_file("planar_2r", ROBOTS_DIR / "planar_2r.yaml", (".yaml",), ValueError).name
+    'planar_2r.yaml'
+    >>> named_file("nothing_here", ROBOTS_DIR / "nothing_here.yaml", (".yaml",), ValueError) is None
+    True
+    >>> named_file("nothing.yaml", ROBOTS_DIR / "x.yaml", (".yaml",), ValueError)
+    Traceback (most recent call last):
+    ...
+    ValueError: nothing.yaml: no such file
+    """
+    path = Path(name_or_path)
+    if path.suffix in suffixes or path.exists():
+        if not path.exists():
+            raise error(f"{path}: no such file")
+        return path
+    return shipped if shipped.exists() else None
 
 
 def list_robot_names() -> List[str]:

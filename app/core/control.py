@@ -27,7 +27,7 @@ import numpy as np
 import sympy as sp
 
 from .errors import UserError
-from .expressions import ExpressionError, parse_expression
+from .expressions import ExpressionError, parse_number
 
 
 class GainError(UserError):
@@ -230,7 +230,7 @@ def parse_gains(text: Optional[str]) -> Dict[str, float]:
         if not key.replace("_", "").isalnum():
             raise GainError(f"gains: '{key}' is not a gain name")
         try:
-            out[key] = float(parse_expression(raw, allowed_names=()))
+            out[key] = parse_number(raw)
         except (ExpressionError, TypeError) as exc:
             raise GainError(f"gains: {key}={raw}: {exc}") from None
     return out

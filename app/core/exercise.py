@@ -20,7 +20,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional
 
 
 from . import reproducible_sympy
-from .catalog import EXERCISES_DIR, exercise_files
+from .catalog import EXERCISES_DIR, exercise_files, named_file
 from .dynamics import Dynamics, derive
 from .errors import UserError
 from .expressions import ExpressionError, parse_expression
@@ -166,15 +166,10 @@ class TaskContext:
 
 # ---------------------------------------------------------------------- loading
 def exercise_path(id_or_path: str | Path) -> Path:
-    p = Path(id_or_path)
-    if p.suffix in (".yaml", ".yml") or p.exists():
-        if not p.exists():
-            raise ExerciseError(f"{p}: no such file")
-        return p
-    name = str(id_or_path).replace("#", "_")
-    cand = EXERCISES_DIR / f"{name}.yaml"
-    if cand.exists():
-        return cand
+    shipped = EXERCISES_DIR / (str(id_or_path).replace("#", "_") + ".yaml")
+    path = named_file(id_or_path, shipped, (".yaml", ".yml"), ExerciseError)
+    if path is not None:
+        return path
     raise ExerciseError(f"unknown exercise '{id_or_path}' (not a file, not a shipped exercise; "
                         "`python -m app exercises` lists them)")
 

@@ -364,8 +364,10 @@ def parse_expression(text, allowed_names: Iterable[str] | None = None,
     return value
 
 
-def parse_number(text, what: str = "value") -> float:
-    """Parse a plain numeric value (expressions of constants allowed), or raise ExpressionError.
+def parse_number(text, what: str = "") -> float:
+    """Parse a plain numeric value (expressions of constants allowed), or raise ExpressionError
+    (its message starts with ``what``, the input's name, when one is given). The one rule for
+    numbers read from user text: use it rather than ``float(parse_expression(...))``.
 
     >>> f"{parse_number('pi/2'):.12f}"
     '1.570796326795'

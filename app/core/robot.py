@@ -25,9 +25,9 @@ from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 import sympy as sp
 
-from .catalog import ROBOTS_DIR, list_robot_names
+from .catalog import ROBOTS_DIR, list_robot_names, named_file
 from .errors import UserError
-from .expressions import ExpressionError, excerpt, parse_expression, symbol
+from .expressions import ExpressionError, excerpt, parse_expression, parse_number, symbol
 from .files import load_yaml, read_user_file
 from .mass_check import singular_directions
 from .robot_model import (  # noqa: F401  (re-exported: the robot module is the entry point)
@@ -288,7 +288,7 @@ def _parse_parameters(ctx: _Ctx, raw, coords: Sequence[str]) -> Dict[str, Parame
         if kind not in PARAMETER_KINDS:
             raise ctx.fail(f"{where}.kind", f"expected one of {PARAMETER_KINDS}, got {excerpt(kind)}")
         try:
-            value = check_parameter(pname, kind, float(parse_expression(spec.get("value"), allowed_names=())))
+            value = check_parameter(pname, kind, parse_number(spec.get("value")))
         except ExpressionError as exc:
             raise ctx.fail(f"{where}.value", f"expected a number: {exc}") from None
         except ParameterError as exc:
@@ -475,7 +475,7 @@ def _parse_friction(ctx: _Ctx, const: _Ctx, raw, coords) -> Tuple[Dict[str, sp.E
 
 def _number(ctx: _Ctx, value, where: str) -> float:
     try:
-        return float(parse_expression(value, allowed_names=()))
+        return parse_number(value)
     except ExpressionError as exc:
         raise ctx.fail(where, str(exc)) from None
 
@@ -648,14 +648,10 @@ def robot_path(name_or_path: str | Path) -> Path:
     """Resolve a shipped robot's name or a path to a robot file."""
     if not str(name_or_path).strip():
         raise RobotFileError("empty robot name (give a shipped robot's name or a path to a robot file)")
-    candidate = Path(name_or_path)
-    if candidate.suffix in (".yaml", ".yml", ".json", ".urdf") or candidate.exists():
-        if not candidate.exists():
-            raise RobotFileError(f"{candidate}: no such file")
-        return candidate
-    shipped = ROBOTS_DIR / f"{name_or_path}.yaml"
-    if shipped.exists():
-        return shipped
+    path = named_file(name_or_path, ROBOTS_DIR / f"{name_or_path}.yaml", (".yaml", ".yml", ".json", ".urdf"),
+                      RobotFileError)
+    if path is not None:
+        return path
     known = ", ".join(list_robot_names()[:8])
     raise RobotFileError(f"unknown robot {excerpt(name_or_path)} (not a file, not a shipped robot; e.g. {known} ...; "
                          f"`python -m app robots` lists them)")

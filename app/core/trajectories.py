@@ -22,7 +22,7 @@ from typing import Dict, Optional, Sequence, Tuple
 import numpy as np
 
 from .errors import UserError
-from .expressions import ExpressionError, parse_expression
+from .expressions import ExpressionError, parse_number
 
 Samples = Tuple[np.ndarray, np.ndarray, np.ndarray]
 
@@ -278,7 +278,7 @@ def parse_reference(text: Optional[str], start: Sequence[float], names: Optional
         if key not in allowed:
             raise TrajectoryError(f"reference '{kind}': unknown key '{key}' (allowed: {', '.join(allowed)})")
         try:
-            vals = [float(parse_expression(part, allowed_names=())) for part in raw.split(",")]
+            vals = [parse_number(part) for part in raw.split(",")]
         except (ExpressionError, TypeError, ValueError) as exc:
             raise TrajectoryError(f"reference '{kind}': {key}={raw}: {exc}") from None
         if len(vals) not in (1, n):

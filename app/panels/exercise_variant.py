@@ -36,7 +36,7 @@ import yaml
 
 from app.core.errors import UserError
 from app.core.exercise import Exercise, Solution, solve
-from app.core.expressions import ExpressionError, parse_expression
+from app.core.expressions import ExpressionError, parse_expression, parse_number
 from app.core.numeric import ParameterError
 from app.viewer import in_worker
 
@@ -140,7 +140,7 @@ def _leaf(field: Field, original, value):
     if isinstance(value, bool) or value is None:
         raise UserError(f"{field.name}: '{value}' is not a number")
     try:
-        number = float(parse_expression(value if isinstance(value, str) else float(value), allowed_names=()))
+        number = parse_number(value if isinstance(value, str) else float(value))
     except (ExpressionError, TypeError, ValueError):
         number = None
     if number is not None:

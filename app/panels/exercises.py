@@ -22,7 +22,7 @@ import numpy as np
 from app.core.answer_check import check_exercise_answer, exercise_entries
 from app.core.errors import UserError
 from app.core.exercise import EXERCISES_DIR, Exercise, load_exercise
-from app.core.expressions import ExpressionError, parse_expression
+from app.core.expressions import ExpressionError, parse_number
 from app.core.tex import solution_tex
 from app.panels.exercise_scene import HintDrawer
 from app.panels.exercise_variant import SOLUTIONS, Field, fields, format_value, parse_field
@@ -588,7 +588,7 @@ def _constant(value) -> Optional[float]:
     if isinstance(value, bool):
         return None
     try:
-        return float(parse_expression(value if isinstance(value, str) else float(value), allowed_names=()))
+        return parse_number(value if isinstance(value, str) else float(value))
     except (ExpressionError, TypeError, ValueError):
         return None
 
