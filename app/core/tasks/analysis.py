@@ -1,4 +1,4 @@
-"""Analysis of a robot's model: equilibria, gravity balancing, factorizations of the Coriolis
+"""Analysis of a robot's model: gravity balancing, factorizations of the Coriolis
 terms, changes of coordinates, Cartesian quantities of a point and numeric evaluations. Everything
 is computed from the robot file through app.core.dynamics; an exercise only says what to compute.
 
@@ -7,10 +7,6 @@ Every task accepts ``suffix`` (appended to its answer names, for two uses in one
 
 Task kinds (options -> answers):
 
-- ``equilibria``: all solutions of g(q) + k(q) = 0 in closed form, angles in (-pi, pi]; each
-  coefficient multiplying a trigonometric function is assumed nonzero (generic parameters).
-  Options: ``springs`` (include spring forces, default true). Answers: ``equilibria`` (one row per
-  configuration, sorted by their values at the parameters' numbers), ``equilibria_count``.
 - ``gravity_balance``: parameter values that make g(q) = 0 for every q. Options: ``solve_for``
   (parameters to choose, e.g. CoM distances), ``zero`` (parameters set to 0 while balancing,
   e.g. a payload). Answers: ``balance`` (values in the order of ``solve_for``),
@@ -58,22 +54,12 @@ Task kinds (options -> answers):
   without potential forces. Options: ``gamma`` (a number or a symbol, default ``gamma_``), ``at``,
   ``velocity``.
   Answers: ``tau_decay``, ``tau_decay_at``.
-
->>> from app.core.exercise import parse_exercise, solve
->>> ex = parse_exercise({"id": "x", "robot": "planar_2r", "question": "?",
-...                      "tasks": [{"kind": "equilibria"}]})
->>> solve(ex).answers["equilibria"]
-Matrix([
-[-pi/2,  0],
-[-pi/2, pi],
-[ pi/2,  0],
-[ pi/2, pi]])
 """
 from __future__ import annotations
 
 import itertools
 import math
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import List, Tuple
 
 import numpy as np
 import sympy as sp
@@ -86,280 +72,7 @@ from ..numeric import numeric_function
 from ..steps import to_latex
 from ..trig import TrigPoly
 from . import task
-from .context import TaskView, tidy_cancelled
-
-
-# ====================================================================== shared helpers
-def _is_zero(expr) -> bool:
-    expr = sp.sympify(expr)
-    num, _den = sp.fraction(sp.cancel(sp.together(expr)))
-    return TrigPoly.from_expr(sp.expand(num)).is_zero()
-
-
-def _wrap_angle(value):
-    """A rational multiple of pi brought into (-pi, pi]; other values unchanged.
-
-    >>> _wrap_angle(3*sp.pi/2), _wrap_angle(-sp.pi), _wrap_angle(sp.Symbol("x"))
-    (-pi/2, pi, x)
-    """
-    r = sp.nsimplify(value / sp.pi) if value.is_number else None
-    if r is None or not r.is_Rational:
-        return value
-    r = r - 2 * sp.floor((r + 1) / 2)        # into [-1, 1)
-    if r == -1:
-        r = sp.Integer(1)
-    return r * sp.pi
-
-
-# ====================================================================== equilibria
-def _primitive(freqs: List[Dict[sp.Symbol, int]]) -> Optional[Tuple[Dict[sp.Symbol, int], List[int]]]:
-    """A primitive frequency v with every frequency an integer multiple of it, and the multiples."""
-    base = freqs[0]
-    g = 0
-    for n in base.values():
-        g = math.gcd(g, abs(n))
-    v = {s: n // g for s, n in base.items()}
-    first = next(iter(sorted(v, key=lambda s: s.name)))
-    if v[first] < 0:
-        v = {s: -n for s, n in v.items()}
-    multiples = []
-    for f in freqs:
-        if set(f) != set(v):
-            return None
-        k = sp.Rational(f[first], v[first])
-        if not k.is_Integer or any(f[s] != k * v[s] for s in v):
-            return None
-        multiples.append(int(k))
-    return v, multiples
-
-
-def _solve_angle(tp: TrigPoly, t: sp.Symbol) -> List[sp.Expr]:
-    """Solutions in (-pi, pi] of a trigonometric polynomial of one angle t (A cos t + B sin t = 0
-    in closed form, anything else through sympy)."""
-    A = B = C0 = sp.Integer(0)
-    simple = True
-    for (freq, kind), coeff in tp.terms.items():
-        if not freq:
-            C0 += coeff
-        elif dict(freq).get(t) == 1 and len(freq) == 1:
-            if kind == "c":
-                A += coeff
-            else:
-                B += coeff
-        else:
-            simple = False
-    if simple and C0 == 0:
-        if B == 0:
-            sols = [-sp.pi / 2, sp.pi / 2]
-        elif A == 0:
-            sols = [sp.Integer(0), sp.pi]
-        else:
-            t0 = sp.atan(sp.cancel(-A / B))
-            sols = [t0, t0 + sp.pi]
-    else:
-        sols = sp.solve(tp.to_expr(), t)
-        sols = [s for s in sols if s.is_real is not False]
-    out = []
-    for s in sols:
-        s = _wrap_angle(sp.simplify(s))
-        if s not in out:
-            out.append(s)
-    return out
-
-
-class _EquilibriumSolver:
-    """Closed-form solutions of a system of trigonometric-polynomial equations in the coordinates.
-
-    At each stage it takes the equation with the fewest unknowns that either depends on one
-    integer combination of angles only (solved for that combination, which fixes the last
-    coordinate in it) or is a polynomial in a single coordinate; otherwise it splits a product."""
-
-    def __init__(self, unknowns: Sequence[sp.Symbol], angles: Sequence[sp.Symbol], log):
-        self.unknowns = list(unknowns)
-        self.angles = set(angles)
-        self.log = log          # callback(kind, equation, variable, values)
-        self.counter = itertools.count()
-        self.opaque: Dict[sp.Symbol, sp.Expr] = {}   # placeholder -> sin/cos of parameters only
-
-    def hide(self, expr) -> sp.Expr:
-        """Replace sines and cosines of parameters (e.g. sin(alpha)) by placeholder symbols, so
-        that only the unknowns count as angles."""
-        expr = sp.sympify(expr)
-        unknowns = set(self.unknowns)
-        mixed = {f: sp.expand_trig(f) for f in expr.atoms(sp.sin, sp.cos)
-                 if f.free_symbols & unknowns and f.free_symbols - unknowns}
-        expr = sp.expand(expr.xreplace(mixed)) if mixed else expr
-        repl = {}
-        for f in expr.atoms(sp.sin, sp.cos):
-            if not f.free_symbols & set(self.unknowns):
-                for ph, orig in self.opaque.items():
-                    if orig == f:
-                        repl[f] = ph
-                        break
-                else:
-                    ph = sp.Dummy(f"trig{len(self.opaque)}")
-                    self.opaque[ph] = f
-                    repl[f] = ph
-        return expr.xreplace(repl)
-
-    def reveal(self, expr) -> sp.Expr:
-        return sp.sympify(expr).xreplace(self.opaque)
-
-    def solve(self, equations: List[Tuple[int, sp.Expr]], assigned: Dict[sp.Symbol, sp.Expr]) -> List[Dict]:
-        """Solutions of the (row index, expression) equations given the values ``assigned``."""
-        eqs = []
-        for row, e in equations:
-            tp = TrigPoly.from_expr(sp.expand(self.hide(e))).expand()
-            if tp.is_zero():
-                continue
-            if not self._unknowns_in(tp):
-                return []          # a nonzero constant: no solution on this branch
-            eqs.append((row, tp))
-        if not eqs:
-            return [assigned]
-        options = []
-        for idx, (_row, tp) in enumerate(eqs):
-            kind = self._classify(tp)
-            if kind is not None:
-                options.append((len(self._unknowns_in(tp)), 0 if kind[0] == "angle" else 1, idx, kind))
-        if not options:
-            for idx, (row, tp) in enumerate(eqs):
-                factors = self._factors(tp)
-                if len(factors) > 1:
-                    rest = [(r, e.to_expr()) for j, (r, e) in enumerate(eqs) if j != idx]
-                    out = []
-                    self.log("factor", row, self.reveal(tp.to_expr()), None, [self.reveal(f) for f in factors])
-                    for f in factors:
-                        out += self.solve([(row, f)] + rest, dict(assigned))
-                    return out
-            raise ExerciseError("equilibria: the equations " + ", ".join(str(self.reveal(e.to_expr())) for _r, e in eqs)
-                                + " have no closed-form solution the engine can find")
-        _n, _pref, idx, kind = min(options, key=lambda o: o[:3])
-        row, tp = eqs[idx]
-        rest = [(r, e.to_expr()) for j, (r, e) in enumerate(eqs) if j != idx]
-        out = []
-        if kind[0] == "angle":
-            v, multiples = kind[1], kind[2]
-            t = sp.Dummy(f"t{next(self.counter)}")
-            shifted = TrigPoly({(((t, m),) if freq else (), k): c
-                                for ((freq, k), c), m in zip(tp.terms.items(), multiples)})
-            values = _solve_angle(shifted, t)
-            combo = sp.Add(*[n * s for s, n in v.items()])
-            target = max((s for s in v if abs(v[s]) == 1), key=self.unknowns.index)
-            self.log("angle", row, self.reveal(tp.to_expr()), combo, [self.reveal(v) for v in values])
-            for val in values:
-                expr = sp.expand((val - (combo - v[target] * target)) / v[target])
-                new = {s: sp.expand(e.subs(target, expr)) for s, e in assigned.items()}
-                new[target] = expr
-                out += self.solve([(r, sp.expand(e.subs(target, expr))) for r, e in rest], new)
-        else:
-            var = kind[1]
-            values = [s for s in sp.solve(tp.to_expr(), var) if s.is_real is not False]
-            self.log("poly", row, self.reveal(tp.to_expr()), var, [self.reveal(v) for v in values])
-            for val in values:
-                new = {s: sp.expand(e.subs(var, val)) for s, e in assigned.items()}
-                new[var] = val
-                out += self.solve([(r, sp.expand(e.subs(var, val))) for r, e in rest], new)
-        return out
-
-    def _unknowns_in(self, tp: TrigPoly) -> set:
-        out = set()
-        for (freq, _k), c in tp.terms.items():
-            out |= {s for s, _ in freq} | (c.free_symbols & set(self.unknowns))
-        return out & set(self.unknowns)
-
-    def _classify(self, tp: TrigPoly):
-        in_coeffs = set()
-        freqs = []
-        for (freq, _k), c in tp.terms.items():
-            in_coeffs |= c.free_symbols & set(self.unknowns)
-            if freq:
-                freqs.append(dict(freq))
-        if not in_coeffs and freqs:
-            prim = _primitive([f for f in freqs])
-            if prim is not None and any(abs(n) == 1 for n in prim[0].values()):
-                multiples = []
-                it = iter(prim[1])
-                for (freq, _k) in tp.terms:
-                    multiples.append(next(it) if freq else 0)
-                return ("angle", prim[0], multiples)
-        if not freqs and len(in_coeffs) == 1:
-            return ("poly", next(iter(in_coeffs)))
-        if not freqs and in_coeffs:
-            # linear in some unknown with a coefficient free of unknowns (a chain of springs): solve for
-            # the last such unknown
-            expr = tp.to_expr()
-            for var in sorted(in_coeffs, key=self.unknowns.index, reverse=True):
-                coeff = sp.expand(expr).coeff(var, 1)
-                if sp.degree(expr, var) == 1 and coeff != 0 and not coeff.free_symbols & set(self.unknowns):
-                    return ("poly", var)
-        return None
-
-    def _factors(self, tp: TrigPoly) -> List[sp.Expr]:
-        factored = sp.factor(tp.to_expr())
-        parts = [f for f in sp.Mul.make_args(factored) if f.free_symbols & set(self.unknowns)]
-        parts = [f.base if f.is_Pow and f.exp.is_Integer and f.exp > 0 else f for f in parts]
-        return parts
-
-
-@task("equilibria")
-def equilibria_task(ctx, spec):
-    """Configurations with g(q) + k(q) = 0 (see the module docstring)."""
-    a = TaskView(ctx, spec, "equilibria")
-    rhs = a.g + (a.k if spec.get("springs", True) else sp.zeros(len(a.coords), 1))
-    a.ctx.step("Equilibrium condition", rf"g(q) {'+ k(q) ' if a.robot.springs and spec.get('springs', True) else ''}= {a.L(rhs)} = 0",
-               "At rest and without inputs the robot stays still exactly where the potential forces vanish.",
-               bodies=[b.name for b in a.robot.bodies])
-    def log(kind, row, equation, variable, values):
-        vals = ", ".join(a.L(v) for v in values)
-        if kind == "angle":
-            coords = [s for s in a.q if s in variable.free_symbols]
-            bodies = [b.name for b in a.robot.bodies if any(b.name in a.bodies_moved_by(s) for s in coords)]
-            a.ctx.step(f"Row {row + 1}: solve for ${a.L(variable)}$", rf"{a.L(equation)} = 0 \;\Rightarrow\; {a.L(variable)} \in \{{{vals}\}}",
-                       "This equation depends on one combination of angles only (its coefficient is assumed nonzero).",
-                       bodies=bodies)
-        elif kind == "poly":
-            a.ctx.step(f"Row {row + 1}: solve for ${a.L(variable)}$", rf"{a.L(equation)} = 0 \;\Rightarrow\; {a.L(variable)} \in \{{{vals}\}}",
-                       "Solved for one coordinate: the equation is a polynomial in it once the angles (and the coordinates solved later) are fixed.",
-                       bodies=a.bodies_moved_by(variable))
-        else:
-            a.ctx.step(f"Row {row + 1}: split a product", rf"{a.L(equation)} = 0 \;\Rightarrow\; "
-                       + r"\;\text{or}\; ".join(f"{a.L(f)} = 0" for f in values),
-                       "A product vanishes when one of its factors does: each factor is a branch.")
-
-    solver = _EquilibriumSolver(list(a.q), a.angle_coordinates(), log)
-    branches = solver.solve(list(enumerate(rhs)), {})
-    rows = []
-    for sol in branches:
-        row = []
-        for s in a.q:
-            value = sol.get(s, s)
-            for _ in range(len(a.q)):
-                value = sp.expand(value.subs(sol))
-            value = solver.reveal(value)
-            value = _wrap_angle(value) if s in solver.angles else sp.simplify(value)
-            row.append(value)
-        if row not in rows:
-            rows.append(row)
-    values = a.parameter_values()
-
-    def key(row):
-        out = []
-        for e in row:
-            try:
-                out.append(round(float(e.subs(values)), 9))
-            except TypeError:
-                out.append(0.0)
-        return out
-
-    rows.sort(key=key)
-    table = sp.Matrix(rows) if rows else sp.zeros(0, len(a.coords))
-    a.ctx.step("Equilibria", rf"q_e \in {a.L(table)}" if rows else r"\text{none}",
-               f"{len(rows)} equilibrium configuration(s), one per row "
-               f"({symbols_text(a.coords)}); coordinates that do not appear stay free.",
-               bodies=[b.name for b in a.robot.bodies])
-    a.answer("equilibria", table)
-    a.answer("equilibria_count", len(rows))
+from .context import TaskView, is_zero, tidy_cancelled
 
 
 # ====================================================================== gravity balancing
@@ -438,9 +151,9 @@ def factorizations_task(ctx, spec):
     Mdot = a.tidy_cancelled_matrix(sum((a.M.diff(a.q[k]) * a.dq[k] for k in range(n)), sp.zeros(n, n)))
     N1 = a.tidy_cancelled_matrix(Mdot - 2 * S)
     N2 = a.tidy_cancelled_matrix(Mdot - 2 * S_alt)
-    skew1 = all(_is_zero(N1[i, j] + N1[j, i]) for i in range(n) for j in range(i, n))
-    skew2 = all(_is_zero(N2[i, j] + N2[j, i]) for i in range(n) for j in range(i, n))
-    assert all(_is_zero(e) for e in S_alt * a.dq - a.c), "internal error: S' q' != c"
+    skew1 = all(is_zero(N1[i, j] + N1[j, i]) for i in range(n) for j in range(i, n))
+    skew2 = all(is_zero(N2[i, j] + N2[j, i]) for i in range(n) for j in range(i, n))
+    assert all(is_zero(e) for e in S_alt * a.dq - a.c), "internal error: S' q' != c"
     p = a.tidy_cancelled_matrix(a.M * a.dq)
     ST = a.tidy_cancelled_matrix(S.T * a.dq)
     bodies = [b.name for b in a.robot.bodies]
@@ -477,7 +190,7 @@ def _other_factorization(a: TaskView, Ck, S):
         if not isinstance(raw, list) or len(raw) != n or any(not isinstance(r, list) or len(r) != n for r in raw):
             raise a.fail("plus", f"expected a {n}x{n} matrix of expressions of the velocities")
         S0 = sp.Matrix([[a.expr(e, "plus") for e in row] for row in raw])
-        if not all(_is_zero(e) for e in S0 * a.dq):
+        if not all(is_zero(e) for e in S0 * a.dq):
             raise a.fail("plus", "S0 q' must vanish for every q' (otherwise S + S0 no longer factorizes c)")
         return a.tidy_cancelled_matrix(S + S0), (rf"$S' = S + S_0$ with $S_0 = {a.L(S0)}$: $S_0 \dot q = 0$, so $S' \dot q = c$ as well.")
     first = {"first": True, "last": False}.get(a.spec.get("alternative", "last"))
@@ -541,7 +254,7 @@ def coordinate_map_task(ctx, spec):
     a.answer("M_new", M_new)
     a.answer("g_new", g_new)
     a.answer("force_map", T.T)
-    if T.rows == T.cols and not _is_zero(a.tidy_cancelled(T.det())):
+    if T.rows == T.cols and not is_zero(a.tidy_cancelled(T.det())):
         inv = a.tidy_cancelled_matrix(T.T.inv())
         a.ctx.step("Forces on the old coordinates", rf"\tau_q = T^{{-T}} \tau_\theta = {a.L(inv)}\,\tau_\theta",
                    "Inverting the virtual-work relation ($T$ is invertible).")

@@ -32,8 +32,7 @@ from ..exercise import ExerciseError
 from ..expressions import symbol
 from ..steps import to_latex
 from . import task
-from .analysis import _wrap_angle
-from .context import tidy_cancelled
+from .context import tidy_cancelled, wrap_angle
 
 
 def _matrix(ctx, raw, where: str) -> sp.Matrix:
@@ -79,7 +78,7 @@ def _solve_factor(factor, coords: List[sp.Symbol], angles, numbers) -> List[List
         if r.is_real is False or abs(v.imag) > 1e-9 * max(1.0, abs(v.real)):
             continue
         if last in angles:
-            r = _wrap_angle(sp.expand(r)) if r.is_number else sp.expand(r)
+            r = wrap_angle(sp.expand(r)) if r.is_number else sp.expand(r)
         if [last, r] not in rows:
             rows.append([last, r])
     return rows

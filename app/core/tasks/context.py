@@ -98,6 +98,29 @@ def tidy_cancelled(expr, angles: Sequence = ()) -> sp.Expr:
     return pretty(num_tp, angles) / pretty(den_tp, angles)
 
 
+# ====================================================================== small rules
+def is_zero(expr) -> bool:
+    """Whether a (possibly rational) trigonometric expression is identically zero."""
+    expr = sp.sympify(expr)
+    num, _den = sp.fraction(sp.cancel(sp.together(expr)))
+    return TrigPoly.from_expr(sp.expand(num)).is_zero()
+
+
+def wrap_angle(value):
+    """A rational multiple of pi brought into (-pi, pi]; other values unchanged.
+
+    >>> wrap_angle(3*sp.pi/2), wrap_angle(-sp.pi), wrap_angle(sp.Symbol("x"))
+    (-pi/2, pi, x)
+    """
+    r = sp.nsimplify(value / sp.pi) if value.is_number else None
+    if r is None or not r.is_Rational:
+        return value
+    r = r - 2 * sp.floor((r + 1) / 2)        # into [-1, 1)
+    if r == -1:
+        r = sp.Integer(1)
+    return r * sp.pi
+
+
 # ====================================================================== the view
 class TaskView:
     """One task's view of its exercise (see the module docstring)."""

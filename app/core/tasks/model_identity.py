@@ -35,7 +35,7 @@ from ..exercise import ExerciseError
 from ..expressions import symbol
 from ..steps import to_latex
 from . import task
-from .analysis import _is_zero, _wrap_angle
+from .context import is_zero, wrap_angle
 
 
 def _fail(ctx, kind: str, what: str) -> ExerciseError:
@@ -77,7 +77,7 @@ def model_check_task(ctx, spec):
     positive = [symbol(p) for p in (spec.get("positive") or [])]
     L = lambda X: to_latex(X, [c.name for c in coords])
     ans = lambda key, value: ctx.answer(f"{name}_{key}", value)
-    symmetric = all(_is_zero(M[i, j] - M[j, i]) for i in range(n) for j in range(i + 1, n))
+    symmetric = all(is_zero(M[i, j] - M[j, i]) for i in range(n) for j in range(i + 1, n))
     first = any(coords[0] in e.free_symbols for e in M)
     ctx.step(f"Structure of ${L(sp.Symbol(name))}$", rf"{name}(q) = {L(M)}",
              ("Symmetric" if symmetric else "Not symmetric: not an inertia matrix") + "; "
@@ -110,7 +110,7 @@ def model_check_task(ctx, spec):
         raise _fail(ctx, kind, f"matrix: {exc} (no closed-form condition for every q)") from None
     conditions = []
     for c in minima + diag_minima:
-        if not any(_is_zero(c - d) for d in conditions):
+        if not any(is_zero(c - d) for d in conditions):
             conditions.append(c)
     ctx.step("Leading minors of each block", r",\quad ".join(rf"\Delta_{{{k + 1}}} = {L(m)}" for k, m in enumerate(minors)),
              f"Blocks {', '.join(str([i + 1 for i in g]) for g in blocks)}: M > 0 for every q iff each of these stays positive (Sylvester).")
@@ -154,7 +154,7 @@ def _forces(ctx, spec, M, coords, name, L):
         raise _fail(ctx, kind, f"gravity: expected {n} entries")
     ctx.step("Gravity", rf"g(q) = {L(g)}", "")
     if spec.get("single_input"):
-        ok = [i + 1 for i in range(n) if all(_is_zero(g[j]) for j in range(n) if j != i)]
+        ok = [i + 1 for i in range(n) if all(is_zero(g[j]) for j in range(n) if j != i)]
         ctx.step("One input at an equilibrium", rf"g(q) = S u_a \Rightarrow" + (
                  r",\ ".join(rf"\ u_a\ \text{{on}}\ {L(coords[i - 1])} = {L(g[i - 1])}" for i in ok) if ok else r"\ \text{none}"),
                  r"At rest ($\ddot q = \dot q = 0$) the input must balance gravity, so every unactuated row of $g$ must vanish.")
@@ -208,7 +208,7 @@ def identify_robot_task(ctx, spec):
     ctx.answer(f"{name}_matches", matches)
     ctx.answer(f"{name}_count", len(sols))
     for u in unknowns:
-        vals = [_wrap_angle(sp.simplify(s[u])) for s in sols if u in s]
+        vals = [wrap_angle(sp.simplify(s[u])) for s in sols if u in s]
         vals = sorted(set(vals), key=lambda v: float(v) if v.is_number else 0.0)
         if vals:
             ctx.answer(f"{name}_{u.name}", vals[0] if len(vals) == 1 else sp.Matrix(vals))

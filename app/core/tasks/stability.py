@@ -48,8 +48,8 @@ from ..jacobians import JacobianError, point_location
 from ..kinematics import Kinematics
 from ..steps import to_latex
 from . import task
-from .analysis import _EquilibriumSolver, _wrap_angle
-from .context import TaskView, tidy_quotient_matrix
+from .equilibria import EquilibriumSolver
+from .context import TaskView, tidy_quotient_matrix, wrap_angle
 
 
 def _neat(e):
@@ -290,7 +290,7 @@ def _solve_all(lp: _Loop, eq: sp.Matrix):
     """Closed-form solutions of eq = 0 in the coordinates; when there is none, the coordinates that
     single equations fix ({coordinate: value})."""
     angles = [s for s in lp.q if any(s in b.joint.value.free_symbols for b in lp.robot.bodies if b.joint.type == "revolute")]
-    solver = _EquilibriumSolver(lp.q, angles, lambda *a: None)
+    solver = EquilibriumSolver(lp.q, angles, lambda *a: None)
     try:
         branches = solver.solve(list(enumerate(eq)), {})
     except UserError:
@@ -311,7 +311,7 @@ def _solve_all(lp: _Loop, eq: sp.Matrix):
             for _ in range(lp.n):
                 v = sp.expand(v.subs(sol))
             v = solver.reveal(v)
-            row.append(_wrap_angle(v) if s in angles else sp.simplify(v))
+            row.append(wrap_angle(v) if s in angles else sp.simplify(v))
         if row not in rows:
             rows.append(row)
     return rows, {}
