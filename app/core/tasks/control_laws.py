@@ -148,18 +148,7 @@ def parametrize(m: TaskView, coefficients: Optional[Sequence] = None, known: Opt
     gens = [s for s in unknown if any(s in e.free_symbols for e in list(a or []) + list(target))]
     if gain is not None:
         gens += [1 / s for s in gain.free_symbols if s in unknown]
-
-    def split(rows: sp.Matrix):
-        cols: Dict[tuple, List[TrigPoly]] = {}
-        for i in range(n):
-            tp = TrigPoly.from_expr(sp.expand(rows[i])).expand()
-            for key, coeff in tp.terms.items():
-                for mono, c in _monomials(coeff, gens).items():
-                    vec = cols.setdefault(mono, [TrigPoly() for _ in range(n)])
-                    vec[i] = vec[i] + TrigPoly({key: c})
-        return cols
-
-    T, T_r = split(target), split(target_r)
+    T, T_r = _columns_by_monomial(target, gens), _columns_by_monomial(target_r, gens)
     one = tuple(0 for _ in gens)
     known_part = [tp.expand() for tp in T.pop(one, [TrigPoly() for _ in range(n)])]
     known_part_r = [tp.expand() for tp in T_r.pop(one, [TrigPoly() for _ in range(n)])]
@@ -177,13 +166,37 @@ def parametrize(m: TaskView, coefficients: Optional[Sequence] = None, known: Opt
     monos = list(dict.fromkeys([mo for row in R_rows for mo in row] + list(T) + list(T_r)))
     p = len(a)
     R = sp.Matrix(p, len(monos), lambda k, j: R_rows[k].get(monos[j], 0))
-    # choose p independent monomial columns (numerically, then invert exactly)
+    chosen = _independent_monomials(R, p)
+    Rinv = R.extract(list(range(p)), chosen).inv()
+    Y = _regressor_of(m, T, R, Rinv, chosen, monos, gens)
+    Y_r = _regressor_of(m, T_r, R, Rinv, chosen, monos, gens)
+    kp = sp.Matrix([m.tidy(tp.to_expr()) for tp in known_part])
+    kpr = sp.Matrix([m.tidy(tp.to_expr()) for tp in known_part_r])
+    return LinearParametrization(a, Y, Y_r, kp, kpr, list(known), len(coeffs))
+
+
+def _columns_by_monomial(rows: sp.Matrix, gens) -> Dict[tuple, List[TrigPoly]]:
+    """The model rows split by monomial of the unknown parameters: monomial -> column of
+    canonical polynomials."""
+    n = rows.rows
+    cols: Dict[tuple, List[TrigPoly]] = {}
+    for i in range(n):
+        tp = TrigPoly.from_expr(sp.expand(rows[i])).expand()
+        for key, coeff in tp.terms.items():
+            for mono, c in _monomials(coeff, gens).items():
+                vec = cols.setdefault(mono, [TrigPoly() for _ in range(n)])
+                vec[i] = vec[i] + TrigPoly({key: c})
+    return cols
+
+
+def _independent_monomials(R: sp.Matrix, p: int) -> List[int]:
+    """p independent monomial columns of R (chosen numerically at seeded values, to invert exactly)."""
     rng = np.random.default_rng(5)
     known_syms = sorted(R.free_symbols, key=lambda s: s.name)
     vals = {s: rng.uniform(0.5, 1.5) for s in known_syms}
     Rn = np.array(R.subs(vals).evalf(), dtype=float) if R.shape[1] else np.zeros((p, 0))
     chosen: List[int] = []
-    for j in range(len(monos)):
+    for j in range(R.shape[1]):
         trial = chosen + [j]
         if np.linalg.matrix_rank(Rn[:, trial], tol=1e-9) == len(trial):
             chosen = trial
@@ -192,36 +205,34 @@ def parametrize(m: TaskView, coefficients: Optional[Sequence] = None, known: Opt
     if len(chosen) < p:
         raise ExerciseError("parametrization.coefficients: the coefficients are not independent "
                             "(one is a combination of the others)")
-    Rinv = R.extract(list(range(p)), chosen).inv()
+    return chosen
 
-    def solve(cols):
-        Y = [[TrigPoly() for _ in range(p)] for _ in range(n)]
+
+def _regressor_of(m: TaskView, cols, R, Rinv, chosen, monos, gens) -> sp.Matrix:
+    """Y with Y a = the model columns ``cols``, checked term by term against a = R monomials."""
+    n, p = len(m.coords), R.shape[0]
+    Y = [[TrigPoly() for _ in range(p)] for _ in range(n)]
+    for i in range(n):
+        for k in range(p):
+            acc = TrigPoly()
+            for jj, j in enumerate(chosen):
+                vec = cols.get(monos[j])
+                if vec is not None and vec[i].terms and Rinv[jj, k] != 0:
+                    acc = acc + vec[i].scale(Rinv[jj, k])
+            Y[i][k] = acc.expand()
+    for j, mono in enumerate(monos):
+        vec = cols.get(mono, [TrigPoly() for _ in range(n)])
         for i in range(n):
+            acc = TrigPoly()
             for k in range(p):
-                acc = TrigPoly()
-                for jj, j in enumerate(chosen):
-                    vec = cols.get(monos[j])
-                    if vec is not None and vec[i].terms and Rinv[jj, k] != 0:
-                        acc = acc + vec[i].scale(Rinv[jj, k])
-                Y[i][k] = acc.expand()
-        for j, mono in enumerate(monos):
-            vec = cols.get(mono, [TrigPoly() for _ in range(n)])
-            for i in range(n):
-                acc = TrigPoly()
-                for k in range(p):
-                    if R[k, j] != 0 and Y[i][k].terms:
-                        acc = acc + Y[i][k].scale(R[k, j])
-                if not (acc - vec[i]).expand().is_zero():
-                    raise ExerciseError(
-                        "parametrization.coefficients: these coefficients do not parametrize the model "
-                        f"(row {i + 1} is not a combination of them: term "
-                        f"{sp.Mul(*[g ** e for g, e in zip(gens, mono)])})")
-        return sp.Matrix(n, p, lambda i, k: m.tidy(Y[i][k].to_expr()))
-
-    Y, Y_r = solve(T), solve(T_r)
-    kp = sp.Matrix([m.tidy(tp.to_expr()) for tp in known_part])
-    kpr = sp.Matrix([m.tidy(tp.to_expr()) for tp in known_part_r])
-    return LinearParametrization(a, Y, Y_r, kp, kpr, list(known), len(coeffs))
+                if R[k, j] != 0 and Y[i][k].terms:
+                    acc = acc + Y[i][k].scale(R[k, j])
+            if not (acc - vec[i]).expand().is_zero():
+                raise ExerciseError(
+                    "parametrization.coefficients: these coefficients do not parametrize the model "
+                    f"(row {i + 1} is not a combination of them: term "
+                    f"{sp.Mul(*[g ** e for g, e in zip(gens, mono)])})")
+    return sp.Matrix(n, p, lambda i, k: m.tidy(Y[i][k].to_expr()))
 
 
 def _options(spec):

@@ -174,6 +174,12 @@ def pfl_task(ctx, spec):
     ctx.answer("n_reduced" + sfx, n_red)
     ctx.answer("reduced_equation" + sfx, m.tidy_matrix(M_red * ddq_L + n_red))
     ctx.answer("closed_loop" + sfx, ddq)
+    _pfl_outer_loop(ctx, m, spec, u, names, sfx)
+    _pfl_residual(ctx, m, spec, u, a, lin, oth, ddq_o, sfx)
+
+
+def _pfl_outer_loop(ctx, m: TaskView, spec, u, names, sfx: str) -> None:
+    """The law with an outer loop substituted for the new inputs (option ``outer``)."""
     outer = spec.get("outer")
     if outer:
         if not isinstance(outer, dict) or not set(outer) <= set(names):
@@ -184,6 +190,11 @@ def pfl_task(ctx, spec):
                  + rf",\quad u = {m.L(u_outer)}",
                  "A stabilizing choice of the new inputs, substituted into the law.")
         ctx.answer("u_outer" + sfx, u_outer)
+
+
+def _pfl_residual(ctx, m: TaskView, spec, u, a, lin, oth, ddq_o, sfx: str) -> None:
+    """The other coordinates' dynamics with the linearized ones at rest (option ``rest``)."""
+    ddq_O = sp.Matrix([m.ddq[i] for i in oth])
     rest = spec.get("rest")
     if rest:
         at = m.mapping(rest, "pfl.rest")
