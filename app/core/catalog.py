@@ -13,26 +13,38 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Callable, List, Optional, Sequence
 
-import yaml
-
 APP_DIR = Path(__file__).resolve().parent.parent
 ROBOTS_DIR = APP_DIR / "robots"
 EXERCISES_DIR = APP_DIR / "exercises"
 
-#: libyaml's loader when PyYAML was built with it (ten times faster); the shipped files are trusted,
-#: user files go through app.core.files.load_yaml
-_SHIPPED_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
-
 
 def _load_shipped(path: Path):
-    return yaml.load(path.read_text(encoding="utf-8"), Loader=_SHIPPED_LOADER)
+    import yaml     # here: the file rules below need the standard library only (app.core.output_cache)
+    # libyaml's loader when PyYAML was built with it (ten times faster); the shipped files are
+    # trusted, user files go through app.core.files.load_yaml
+    return yaml.load(path.read_text(encoding="utf-8"), Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))
+
+
+#: what makes a reference to a robot or an exercise a path rather than a shipped name
+ROBOT_SUFFIXES = (".yaml", ".yml", ".json", ".urdf")
+EXERCISE_SUFFIXES = (".yaml", ".yml")
+
+
+def shipped_robot(name) -> Path:
+    return ROBOTS_DIR / f"{name}.yaml"
+
+
+def shipped_exercise(exercise_id) -> Path:
+    return EXERCISES_DIR / (str(exercise_id).replace("#", "_") + ".yaml")
 
 
 def named_file(name_or_path, shipped: Path, suffixes: Sequence[str],
-               error: Callable[[str], Exception]) -> Optional[Path]:
+               error: Optional[Callable[[str], Exception]] = None) -> Optional[Path]:
     """The file a user names: a path when the text ends in one of ``suffixes`` or names an existing
-    file (``error`` raised when it does not exist), else the shipped file ``shipped`` when it
-    exists, else None (the caller says what it knows). The one rule of robots and exercises.
+    file (``error`` raised when it does not exist; None without ``error``), else the shipped file
+    ``shipped`` when it exists, else None (the caller says what it knows). The one rule of robots
+    and exercises (app.core.robot.robot_path, app.core.exercise.exercise_path, and the output
+    cache, which must find the same file without loading it).
 
     >>> named_file("planar_2r", ROBOTS_DIR / "planar_2r.yaml", (".yaml",), ValueError).name
     'planar_2r.yaml'
@@ -46,6 +58,8 @@ def named_file(name_or_path, shipped: Path, suffixes: Sequence[str],
     path = Path(name_or_path)
     if path.suffix in suffixes or path.exists():
         if not path.exists():
+            if error is None:
+                return None
             raise error(f"{path}: no such file")
         return path
     return shipped if shipped.exists() else None

@@ -20,7 +20,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional
 
 
 from . import reproducible_sympy
-from .catalog import EXERCISES_DIR, exercise_files, named_file
+from .catalog import EXERCISE_SUFFIXES, EXERCISES_DIR, exercise_files, named_file, shipped_exercise
 from .dynamics import Dynamics, derive
 from .errors import UserError
 from .expressions import ExpressionError, parse_expression
@@ -166,8 +166,7 @@ class TaskContext:
 
 # ---------------------------------------------------------------------- loading
 def exercise_path(id_or_path: str | Path) -> Path:
-    shipped = EXERCISES_DIR / (str(id_or_path).replace("#", "_") + ".yaml")
-    path = named_file(id_or_path, shipped, (".yaml", ".yml"), ExerciseError)
+    path = named_file(id_or_path, shipped_exercise(id_or_path), EXERCISE_SUFFIXES, ExerciseError)
     if path is not None:
         return path
     raise ExerciseError(f"unknown exercise '{id_or_path}' (not a file, not a shipped exercise; "

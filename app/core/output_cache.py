@@ -2,8 +2,8 @@
 without importing the symbolic engine (issue 16: a cached command starts in at most 0.5 s of CPU;
 importing sympy and numpy alone takes more).
 
-This module uses the standard library only (and app.core.model_cache's envelope functions, which
-do too). An entry is a JSON file in the cache's ``outputs/`` folder, written and read like a
+This module uses the standard library only (and app.core.model_cache's envelope functions and
+app.core.catalog's rule that finds the file a reference names, which do too). An entry is a JSON file in the cache's ``outputs/`` folder, written and read like a
 derivation (``model_cache.write_entry`` / ``read_entry``: data, never code; a foreign, stale or
 corrupt entry is ignored and overwritten by the next computation). Its envelope, all of which must
 match:
@@ -48,14 +48,14 @@ from pathlib import Path
 from typing import Callable, Iterable, List, Mapping, Optional, Tuple
 
 from . import model_cache
+from .catalog import (EXERCISE_SUFFIXES, EXERCISES_DIR, ROBOT_SUFFIXES, ROBOTS_DIR,  # noqa: F401 (the folders: used by tests)
+                      named_file, shipped_exercise, shipped_robot)
 
 FORM = "robotics2lab-output"
 FOLDER = "outputs"
 MAX_FILE_BYTES = 1_000_000          # app.core.files.MAX_FILE_BYTES: a larger file is refused anyway
 
 APP_DIR = Path(__file__).resolve().parent.parent
-ROBOTS_DIR = APP_DIR / "robots"
-EXERCISES_DIR = APP_DIR / "exercises"
 
 #: compute() -> (exit code, [(reference, path)] of the other files read); it prints its output
 Compute = Callable[[], Tuple[int, Iterable[Tuple[str, str]]]]
@@ -105,10 +105,8 @@ def robot_file(name_or_path: str) -> Optional[Path]:
     """The file ``app.core.robot.robot_path`` resolves a robot reference to (None: not found,
     the command then computes and says why)."""
     try:
-        candidate = Path(name_or_path)
-        if candidate.suffix in (".yaml", ".yml", ".json", ".urdf") or candidate.exists():
-            return _existing(candidate)
-        return _existing(ROBOTS_DIR / f"{name_or_path}.yaml")
+        found = named_file(name_or_path, shipped_robot(name_or_path), ROBOT_SUFFIXES)
+        return _existing(found) if found is not None else None
     except (OSError, ValueError):
         return None
 
@@ -116,10 +114,8 @@ def robot_file(name_or_path: str) -> Optional[Path]:
 def exercise_file(id_or_path: str) -> Optional[Path]:
     """The file ``app.core.exercise.exercise_path`` resolves an exercise reference to (or None)."""
     try:
-        candidate = Path(id_or_path)
-        if candidate.suffix in (".yaml", ".yml") or candidate.exists():
-            return _existing(candidate)
-        return _existing(EXERCISES_DIR / f"{str(id_or_path).replace('#', '_')}.yaml")
+        found = named_file(id_or_path, shipped_exercise(id_or_path), EXERCISE_SUFFIXES)
+        return _existing(found) if found is not None else None
     except (OSError, ValueError):
         return None
 

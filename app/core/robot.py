@@ -25,7 +25,7 @@ from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 import sympy as sp
 
-from .catalog import ROBOTS_DIR, list_robot_names, named_file
+from .catalog import ROBOT_SUFFIXES, ROBOTS_DIR, list_robot_names, named_file, shipped_robot
 from .errors import UserError
 from .expressions import ExpressionError, excerpt, parse_expression, parse_number, symbol
 from .files import load_yaml, read_user_file
@@ -648,8 +648,7 @@ def robot_path(name_or_path: str | Path) -> Path:
     """Resolve a shipped robot's name or a path to a robot file."""
     if not str(name_or_path).strip():
         raise RobotFileError("empty robot name (give a shipped robot's name or a path to a robot file)")
-    path = named_file(name_or_path, ROBOTS_DIR / f"{name_or_path}.yaml", (".yaml", ".yml", ".json", ".urdf"),
-                      RobotFileError)
+    path = named_file(name_or_path, shipped_robot(name_or_path), ROBOT_SUFFIXES, RobotFileError)
     if path is not None:
         return path
     known = ", ".join(list_robot_names()[:8])
