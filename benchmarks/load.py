@@ -15,6 +15,10 @@ that turns ``link1`` to that angle; the time between is one latency sample. Phas
    Throw studio's Optimize button), one types the power tower ``((((9**64)**64)**64)**64)`` into
    a parameter field every 2 s.
 
+Beside them one real browser tab (headless Chromium, ``--no-browser`` to leave it out) presses an
+arrow key on its q1 slider every 0.5-1.5 s and times the key press until the page's 3D scene holds
+the new pose of link 1: the latency a student sees, measured in both phases.
+
 Checked and printed: p50/p95/max latency per phase, samples lost (no pose within 10 s), the
 heavy clients' work done (derivations, optimizer runs, towers refused), per-client independence
 (every link1 angle a client receives is one it set itself, or its initial 0), the server's
@@ -321,6 +325,37 @@ def tower_client(port: int, stop: threading.Event, log: dict) -> None:
         c.close()
 
 
+def browser_client(port: int, phase: List[str], samples: List[tuple], ready: threading.Event,
+                   stop: threading.Event, seed: int) -> None:
+    """One real tab on planar_2r: arrow key on the q1 slider -> link1's new pose in the page's scene."""
+    from app.viewer import screenshot as shots
+    rng = random.Random(seed)
+    changed = ("([name, w, z]) => { const o = window.__viserMutable.nodeRefFromName[name];"
+               " return o !== undefined && (Math.abs(o.quaternion.w - w) > 1e-9 || Math.abs(o.quaternion.z - z) > 1e-9); }")
+    pose = "(name) => { const o = window.__viserMutable.nodeRefFromName[name]; return [o.quaternion.w, o.quaternion.z]; }"
+    with shots.Browser() as browser:
+        page = browser.page(f"http://127.0.0.1:{port}/?robot=planar_2r")
+        shots.wait_ready(page, "planar_2r", timeout=300)
+        name = page.evaluate("() => Object.keys(window.__viserMutable.nodeRefFromName)"
+                             ".find(n => n.startsWith('/robot/') && n.endsWith('/link1'))")
+        thumb = shots.slider_thumb(page, "q1")
+        thumb.focus()
+        ready.set()
+        step = 0
+        while not stop.is_set():
+            w, z = page.evaluate(pose, name)
+            key = "ArrowRight" if (step // 20) % 2 == 0 else "ArrowLeft"       # back and forth in its range
+            start = time.perf_counter()
+            thumb.press(key)
+            try:
+                page.wait_for_function(changed, arg=[name, w, z], timeout=LOST_AFTER * 1000)
+                samples.append((phase[0], time.perf_counter() - start))
+            except Exception:
+                samples.append((phase[0], None))
+            step += 1
+            stop.wait(rng.uniform(0.5, 1.5))
+
+
 def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -340,6 +375,7 @@ def main(argv=None) -> int:
     parser.add_argument("--seconds", type=float, default=60.0, help="length of the loaded phase")
     parser.add_argument("--baseline", type=float, default=15.0, help="length of the phase without heavy clients")
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--no-browser", action="store_true", help="leave out the real browser tab")
     parser.add_argument("--switch-interval", type=float, default=None,
                         help="the server's sys.setswitchinterval (how long a thread holds the interpreter lock "
                              "before another may take it; Python's default 0.005 s)")
@@ -389,8 +425,14 @@ def main(argv=None) -> int:
         print(f"{args.clients} light clients connected in {connect_s:.1f} s; server RSS {rss['connected']:.0f} MB "
               f"(at start {rss['started']:.0f} MB)", flush=True)
         threads = [threading.Thread(target=c.run, daemon=True) for c in clients]
+        browser_phase, browser_samples, browser_ready, browser_stop = ["baseline"], [], threading.Event(), threading.Event()
+        if not args.no_browser:
+            threads.append(threading.Thread(target=browser_client, daemon=True, args=(
+                port, browser_phase, browser_samples, browser_ready, browser_stop, args.seed)))
         for th in threads:
             th.start()
+        if not args.no_browser and not browser_ready.wait(300):
+            print("the browser tab did not become ready within 300 s", flush=True)
         meter.stop()
         connect_cpu = (meter.server, meter.workers)
         meter.start()
@@ -400,6 +442,7 @@ def main(argv=None) -> int:
         baseline_cpu = (meter.server, meter.workers, time.process_time() - own0)
         for c in clients:
             c.phase = "loaded"
+        browser_phase[0] = "loaded"
         meter.start()
         own1 = time.process_time()
         loaded_wall = time.perf_counter()
@@ -412,6 +455,7 @@ def main(argv=None) -> int:
             th.start()
         time.sleep(args.seconds)
         stop.set()
+        browser_stop.set()
         for c in clients:
             c.stop.set()
         for th in threads + heavy:
@@ -431,6 +475,11 @@ def main(argv=None) -> int:
             got = [s for c in clients for p, s in c.samples if p == phase and s is not None]
             lost = sum(1 for c in clients for p, s in c.samples if p == phase and s is None)
             print(f"slider -> pose, {phase}: {percentiles(got)}, lost {lost}")
+        if not args.no_browser:
+            for phase in ("baseline", "loaded"):
+                got = [t for p, t in browser_samples if p == phase and t is not None]
+                lost = sum(1 for p, t in browser_samples if p == phase and t is None)
+                print(f"real browser tab, arrow key -> pose in its scene, {phase}: {percentiles(got)}, lost {lost}")
         per_client = [np.percentile([s for p, s in c.samples if p == "loaded" and s is not None] or [np.nan], 95)
                       for c in clients]
         print(f"per-client p95 under load: best {np.nanmin(per_client) * 1000:.0f} ms, "
