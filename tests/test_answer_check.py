@@ -6,7 +6,8 @@ import json
 
 import pytest
 
-from app.core.answer_check import AnswerError, check_exercise_answer, check_model_entry
+from app.core.answer_check import check_exercise_answer, check_model_entry
+from app.core.answer_reading import AnswerError
 from app.core.dynamics import derive
 from app.core.exercise import load_exercise, solve
 from app.core.robot import load_robot

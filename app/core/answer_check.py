@@ -28,6 +28,10 @@ For a panel, one line: ``check_answer("planar_2r", "m11", text).as_dict()`` (or
 ``check_exercise_answer(solution, name, text)`` for a solved exercise); the verdict's ``message``
 and findings' ``message`` follow the text convention of app/core/mathtext.py (``$...$`` math).
 
+The rooms: reading answers in answer_reading.py (``Reader``, ``AnswerError``), comparing and the
+findings in answer_compare.py (``equivalent``, ``Diagnosis``, ``numbers_match``), dimensions in
+answer_units.py; this module holds the entries and the checks.
+
 >>> v = check_answer("planar_2r", "m22", "I2 + m2*d2^2")
 >>> v.correct
 True
@@ -41,35 +45,20 @@ import math
 import random
 import re
 from dataclasses import dataclass, field
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
+from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
 import sympy as sp
 
+from .answer_compare import Diagnosis, Finding, equivalent, numbers_match, real_symbols, typed_digits
+from .answer_reading import AnswerError, Reader, split_top
+from .answer_units import Dimensions
 from .errors import UserError
-from .expressions import ExpressionError, parse_expression, symbol
-from .numeric import numeric_function
-from .steps import Step, shorthand_is_clear, to_latex
-from .trig import TrigPoly
-
-
-class AnswerError(UserError):
-    """The answer cannot be read, or the entry does not exist (exit code 2 on the command line)."""
+from .expressions import symbol
+from .steps import Step, to_latex
 
 
 # ====================================================================== verdict
-@dataclass
-class Finding:
-    """One thing found about a wrong answer; ``message`` uses the $...$ text convention."""
-    kind: str          # units, missing_term, extra_term, sign, factor, coefficient, sin_cos, dependence,
-    #                    function, value, digits, shape, factorization, skew, span, count
-    message: str
-    data: Dict[str, Any] = field(default_factory=dict)
-
-    def as_dict(self) -> dict:
-        return {"kind": self.kind, "message": self.message, **self.data}
-
-
 @dataclass
 class Verdict:
     target: str
@@ -104,479 +93,6 @@ class Verdict:
             if self.step.latex:
                 out += ["    " + line for line in latex_to_unicode(self.step.latex, display=True).splitlines()]
         return "\n".join(out)
-
-
-# ====================================================================== reading answers
-_UNICODE = {"²": "**2", "³": "**3", "·": "*", "×": "*", "−": "-", "–": "-", "’": "'", "′": "'", "″": "''",
-            "π": "pi", "θ": "theta", "α": "alpha", "β": "beta", "γ": "gamma", "δ": "delta", "λ": "lambda",
-            "μ": "mu", "ρ": "rho", "σ": "sigma", "τ": "tau", "φ": "phi", "ψ": "psi", "ω": "omega",
-            "Ω": "Omega", "Λ": "Lambda", "Γ": "Gamma", "Δ": "Delta", "η": "eta", "ξ": "xi", "ζ": "zeta",
-            "κ": "kappa", "ν": "nu", "χ": "chi", "ε": "epsilon"}
-_FUNCTIONS = {"sin", "cos", "tan", "atan2", "atan", "asin", "acos", "sqrt", "exp", "log", "abs", "Abs", "sign"}
-_TOKEN = re.compile(r"\s*(?:(\d+\.\d*|\.\d+|\d+)|([A-Za-z_][A-Za-z0-9_]*)('*)|(\*\*|[-+*/^(),]))")
-
-
-def _rewrite(text: str, known: Sequence[str]) -> str:
-    """Course notation -> the whitelist parser's syntax: primes to dq/ddq, implicit products made
-    explicit, ``sin q2`` to ``sin(q2)``, glued names (``m2l1``) split into known ones."""
-    for a, b in _UNICODE.items():
-        text = text.replace(a, b)
-    text = text.replace("^", "**")
-    tokens: List[Tuple[str, str]] = []
-    pos = 0
-    while pos < len(text):
-        m = _TOKEN.match(text, pos)
-        if not m or m.end() == pos:
-            if text[pos:].strip() == "":
-                break
-            raise AnswerError(f"cannot read {text!r} at '{text[pos:pos + 10].strip()}'")
-        pos = m.end()
-        number, name, primes, op = m.groups()
-        if number is not None:
-            tokens.append(("num", number))
-        elif name is not None:
-            if primes:
-                name = ("dd" if len(primes) >= 2 else "d") + name
-            for part in _split_glued(name, known):
-                tokens.append(("name", part))
-        else:
-            tokens.append(("op", op))
-    out: List[str] = []
-    i = 0
-    while i < len(tokens):
-        kind, value = tokens[i]
-        prev = tokens[i - 1] if i else None
-        if prev is not None and kind in ("num", "name") or (kind == "op" and value == "("):
-            if prev is not None and (prev[0] in ("num", "name") and not (prev[0] == "name" and prev[1] in _FUNCTIONS
-                                                                          and value == "(")
-                                     or prev == ("op", ")")):
-                out.append("*")
-        if kind == "name" and value in _FUNCTIONS and i + 1 < len(tokens) and tokens[i + 1][0] in ("name", "num"):
-            out.append(f"{value}({tokens[i + 1][1]})")     # sin q2 -> sin(q2)
-            i += 2
-            continue
-        out.append(value)
-        i += 1
-    return " ".join(out)
-
-
-def _split_glued(name: str, known: Sequence[str]) -> List[str]:
-    """``m2l1`` -> ``[m2, l1]`` when the whole is unknown but splits into known names."""
-    if name in known or name in _FUNCTIONS or name in ("pi", "E"):
-        return [name]
-    best: Dict[int, List[str]] = {0: []}
-    for end in range(1, len(name) + 1):
-        for start in range(end):
-            if start in best and name[start:end] in known:
-                cand = best[start] + [name[start:end]]
-                if end not in best or len(cand) < len(best[end]):
-                    best[end] = cand
-    return best.get(len(name), [name])
-
-
-def _split_top(text: str, seps: str) -> List[str]:
-    parts, depth, cur = [], 0, ""
-    for ch in text:
-        if ch in "([":
-            depth += 1
-        elif ch in ")]":
-            depth -= 1
-        if depth == 0 and ch in seps:
-            parts.append(cur)
-            cur = ""
-        else:
-            cur += ch
-    parts.append(cur)
-    return [p.strip() for p in parts]
-
-
-class Reader:
-    """Reads answers for one robot (and extra names of an exercise) into sympy."""
-
-    def __init__(self, robot, extra_names: Sequence[str] = ()):
-        self.robot = robot
-        coords = list(robot.coordinates)
-        names = set(robot.parameters) | set(coords) | {"d" + c for c in coords} | {"dd" + c for c in coords}
-        names |= {"d" + c + "_r" for c in coords} | {"dd" + c + "_r" for c in coords} | {"t"}
-        names |= set(extra_names)
-        self.extra = _shorthands(coords, names)
-        self.known = sorted(names | set(self.extra))
-        self.names = names
-
-    def scalar(self, text: str) -> sp.Expr:
-        source = _rewrite(text, self.known)
-        try:
-            expr = parse_expression(source, allowed_names=self.names, extra=self.extra)
-        except ExpressionError as exc:
-            raise AnswerError(f"cannot read the answer {text!r}: {str(exc).split(' in ')[0]}") from None
-        return expr
-
-    def value(self, text: str):
-        """A scalar, a vector ``[a, b]`` or a matrix ``[[a, b], [c, d]]`` / ``[a, b; c, d]``."""
-        text = str(text).strip()
-        if not text:
-            raise AnswerError("empty answer")
-        if text.startswith("[") and text.endswith("]"):
-            inner = text[1:-1].strip()
-            if ";" in inner and "[" not in inner:
-                rows = [[self.scalar(x) for x in _split_top(r, ",")] for r in _split_top(inner, ";")]
-                if len({len(r) for r in rows}) != 1:
-                    raise AnswerError(f"the rows of {text!r} have different lengths")
-                return sp.Matrix(rows)
-            items = _split_top(inner, ",")
-            if all(i.startswith("[") for i in items):
-                rows = [self.value(i) for i in items]
-                if any(not isinstance(r, sp.MatrixBase) or r.cols != 1 for r in rows) or len({r.rows for r in rows}) != 1:
-                    raise AnswerError(f"the rows of {text!r} have different lengths")
-                return sp.Matrix([list(r) for r in rows])
-            return sp.Matrix([self.scalar(i) for i in items])
-        return self.scalar(text)
-
-
-def _shorthands(coords: Sequence[str], names) -> Dict[str, sp.Expr]:
-    """c1 = cos q1, s12 = sin(q1 + q2), c23 ... for coordinates named letter+digit, when no
-    parameter is called like that."""
-    matches = [re.fullmatch(r"([A-Za-z]+)(\d)", c) for c in coords]
-    if not coords or not all(matches) or len({m.group(1) for m in matches}) != 1:
-        return {}
-    if not shorthand_is_clear(names):
-        return {}
-    digits = [m.group(2) for m in matches]
-    out: Dict[str, sp.Expr] = {}
-    from itertools import combinations
-    for k in range(1, len(coords) + 1):
-        for combo in combinations(range(len(coords)), k):
-            arg = sp.Add(*[symbol(coords[i]) for i in combo])
-            key = "".join(digits[i] for i in combo)
-            out["c" + key] = sp.cos(arg)
-            out["s" + key] = sp.sin(arg)
-    return out
-
-
-# ====================================================================== dimensions
-_UNIT_DIMS = {"kg": (1, 0, 0), "g": (1, 0, 0), "m": (0, 1, 0), "cm": (0, 1, 0), "mm": (0, 1, 0), "s": (0, 0, 1),
-              "N": (1, 1, -2), "J": (1, 2, -2), "W": (1, 2, -3), "rad": (0, 0, 0), "deg": (0, 0, 0)}
-_KIND_DIMS = {"mass": (1, 0, 0), "length": (0, 1, 0), "com": (0, 1, 0), "inertia": (1, 2, 0),
-              "gravity": (0, 1, -2), "angle": (0, 0, 0)}
-Dim = Tuple[float, float, float]
-
-
-def unit_dimension(unit: str) -> Optional[Dim]:
-    """(mass, length, time) exponents of a unit string such as ``kg m^2`` or ``N m/rad``.
-
-    >>> unit_dimension("kg m^2"), unit_dimension("m/s^2"), unit_dimension("N m/rad")
-    ((1, 2, 0), (0, 1, -2), (1, 2, -2))
-    """
-    unit = unit.strip()
-    if not unit:
-        return None
-    total = [0, 0, 0]
-    for k, part in enumerate(unit.split("/")):
-        sign = 1 if k == 0 else -1
-        for factor in part.replace("*", " ").replace("·", " ").split():
-            m = re.fullmatch(r"([A-Za-z]+)(?:\^?(-?\d+))?", factor)
-            if not m or m.group(1) not in _UNIT_DIMS:
-                return None
-            power = int(m.group(2) or 1) * sign
-            for i, e in enumerate(_UNIT_DIMS[m.group(1)]):
-                total[i] += e * power
-    return tuple(total)
-
-
-def _unit_text(dim: Dim) -> str:
-    names = ("kg", "m", "s")
-    parts = []
-    for n, e in zip(names, dim):
-        if e:
-            power = int(e) if float(e).is_integer() else e
-            parts.append(rf"\mathrm{{{n}}}" + ("" if power == 1 else f"^{{{power}}}"))
-    return r"\,".join(parts) if parts else r"\text{no unit}"
-
-
-class Dimensions:
-    """Dimensions of the symbols of a robot: parameters from their units (or kinds), revolute
-    coordinates dimensionless, prismatic ones lengths, velocities and accelerations per second."""
-
-    def __init__(self, robot, dyn=None):
-        self.dims: Dict[sp.Symbol, Dim] = {}
-        for p in robot.parameters.values():
-            d = unit_dimension(p.unit) if p.unit else None
-            d = d if d is not None else _KIND_DIMS.get(p.kind)
-            if d is not None:
-                self.dims[p.symbol] = d
-        angles = _angle_coordinates(robot, dyn)
-        for c in robot.coordinates:
-            base = (0, 0, 0) if c in angles else (0, 1, 0)
-            for prefix, t in (("", 0), ("d", -1), ("dd", -2)):
-                for suffix in ("", "_r"):
-                    if prefix or not suffix:
-                        self.dims[symbol(prefix + c + suffix)] = (base[0], base[1], base[2] + t)
-        self.dims[symbol("t")] = (0, 0, 1)
-
-    def of(self, expr) -> Optional[Dim]:
-        """Dimension of a product term (None when unknown or inconsistent)."""
-        expr = sp.sympify(expr)
-        if expr.is_number:
-            return (0, 0, 0)
-        if expr.is_Symbol:
-            return self.dims.get(expr)
-        if expr.is_Mul:
-            total = [0.0, 0.0, 0.0]
-            for f in expr.args:
-                d = self.of(f)
-                if d is None:
-                    return None
-                total = [a + b for a, b in zip(total, d)]
-            return tuple(total)
-        if expr.is_Pow and expr.exp.is_number:
-            d = self.of(expr.base)
-            return None if d is None else tuple(float(expr.exp) * e for e in d)
-        if expr.is_Add:
-            dims = {self.of(a) for a in expr.args}
-            return dims.pop() if len(dims) == 1 else None
-        if isinstance(expr, (sp.sin, sp.cos, sp.tan, sp.exp, sp.log, sp.sign)):
-            return (0, 0, 0)
-        if isinstance(expr, sp.Abs):
-            return self.of(expr.args[0])
-        return None
-
-
-def _angle_coordinates(robot, dyn) -> set:
-    """Coordinates that appear inside a sine or cosine of the kinematics (revolute ones)."""
-    types = {}
-    for b in robot.bodies:
-        jt = getattr(b.joint, "type", None)
-        coord = getattr(b.joint, "coordinate", None)
-        if coord is not None and jt in ("revolute", "prismatic"):
-            types[str(coord)] = jt
-    angles = {c for c, t in types.items() if t == "revolute"}
-    if dyn is not None:
-        for p in dyn.com_positions.values():
-            for f in sp.Matrix(p).atoms(sp.sin, sp.cos):
-                angles |= {s.name for s in f.free_symbols if s.name in robot.coordinates}
-    return angles
-
-
-# ====================================================================== comparing
-def _real(expr):
-    return sp.sympify(expr).xreplace({s: symbol(s.name) for s in sp.sympify(expr).free_symbols
-                                      if isinstance(s, sp.Symbol) and not s.is_real})
-
-
-def equivalent(a, b, points: int = 8) -> bool:
-    """Exact equality through the canonical trigonometric form; expressions outside it (fractions,
-    square roots) compared at random points (relative 1e-9)."""
-    d = sp.expand(_real(a) - _real(b))
-    if d == 0:
-        return True
-    try:
-        if TrigPoly.from_expr(d).is_zero():
-            return True
-    except Exception:   # pragma: no cover - exotic expressions: fall back to numbers
-        pass
-    free = sorted(d.free_symbols | _real(a).free_symbols | _real(b).free_symbols, key=lambda s: s.name)
-    if not d.free_symbols:
-        return abs(complex(d.evalf())) < 1e-9 * max(1.0, abs(complex(_real(a).evalf())))
-    if not (d.has(sp.Pow) and any(p.exp.is_negative or not p.exp.is_integer for p in d.atoms(sp.Pow))) \
-            and not d.has(sp.Abs, sp.sqrt, sp.atan2, sp.asin, sp.acos, sp.atan, sp.exp, sp.log):
-        return False     # a trigonometric polynomial whose canonical form is not zero
-    f = numeric_function(free, d, "math")
-    scale = numeric_function(free, sp.Abs(_real(a)) + sp.Abs(_real(b)) + 1, "math")
-    rng = random.Random(11)
-    tried = 0
-    for _ in range(points * 3):
-        vals = [rng.uniform(0.3, 1.7) for _ in free]
-        try:
-            v, s = f(*vals), scale(*vals)
-        except (ZeroDivisionError, ValueError, OverflowError):
-            continue
-        tried += 1
-        if abs(v) > 1e-9 * s:
-            return False
-        if tried >= points:
-            break
-    return tried > 0
-
-
-def _groups(expr, trig_symbols) -> Dict[sp.Expr, TrigPoly]:
-    """expr = sum over monomials p (in everything but the angles) of p * f_p(q): {p: f_p}."""
-    out: Dict[sp.Expr, TrigPoly] = {}
-    tp = TrigPoly.from_expr(sp.expand(_real(expr)))
-    for key, coeff in tp.items():
-        basis = TrigPoly({key: sp.Integer(1)})
-        for term in sp.Add.make_args(sp.expand(coeff)):
-            number, mono = term.as_coeff_Mul()
-            mono_angles = [s for s in mono.free_symbols if s in trig_symbols]
-            if mono_angles:    # a bare angle (q1 * cos q2): keep it with the function of q
-                rest = mono
-                angle_part = sp.Mul(*[f for f in sp.Mul.make_args(mono) if f.free_symbols & set(trig_symbols)])
-                mono = sp.Mul(*[f for f in sp.Mul.make_args(rest) if not f.free_symbols & set(trig_symbols)])
-                basis_term = TrigPoly.from_expr(angle_part * TrigPoly.basis_function(key))
-            else:
-                basis_term = basis
-            out[mono] = out.get(mono, TrigPoly()) + basis_term.scale(number)
-    return {m: f for m, f in out.items() if not f.is_zero()}
-
-
-def _swap_sin_cos(tp: TrigPoly) -> TrigPoly:
-    terms = {}
-    for (freq, kind), c in tp.items():
-        if freq:
-            terms[(freq, "s" if kind == "c" else "c")] = c
-        else:
-            terms[(freq, kind)] = c
-    return TrigPoly(terms)
-
-
-def _ratio(a: TrigPoly, b: TrigPoly) -> Optional[sp.Expr]:
-    """c with a = c * b for a constant c, else None."""
-    if set(k for k, _ in a.items()) != set(k for k, _ in b.items()):
-        return None
-    ratios = {sp.nsimplify(sp.simplify(ca / b.terms[k])) for k, ca in a.items()}
-    if len(ratios) == 1:
-        r = ratios.pop()
-        return r if r.is_number else None
-    return None
-
-
-def _angles_of(tp: TrigPoly) -> set:
-    return {s for (freq, _), _ in tp.items() for s, _ in freq}
-
-
-class Diagnosis:
-    """Findings about a wrong symbolic answer (scalar), naming terms by their parameters only."""
-
-    def __init__(self, robot, dims: Optional[Dimensions], coords: Sequence[str]):
-        self.robot, self.dims, self.coords = robot, dims, list(coords)
-        self.angles = [symbol(c) for c in coords]
-
-    def L(self, expr) -> str:
-        return to_latex(expr, self.coords)
-
-    def findings(self, entry_tex: str, expected, answer) -> List[Finding]:
-        out: List[Finding] = []
-        out += self._units(entry_tex, expected, answer)
-        out += self._dependence(entry_tex, expected, answer)
-        try:
-            out += self._terms(entry_tex, expected, answer)
-        except Exception:   # pragma: no cover - forms outside the canonical one: the sample still speaks
-            pass
-        return out
-
-    def _units(self, entry_tex, expected, answer) -> List[Finding]:
-        if self.dims is None:
-            return []
-        terms_e = sp.Add.make_args(sp.expand(expected))
-        dims_e = {self.dims.of(t) for t in terms_e}
-        if len(dims_e) != 1 or None in dims_e:
-            return []
-        want = dims_e.pop()
-        out = []
-        for term in sp.Add.make_args(sp.expand(answer)):
-            d = self.dims.of(term)
-            if d is not None and any(abs(a - b) > 1e-9 for a, b in zip(d, want)):
-                out.append(Finding("units", f"unit mismatch: your term ${self.L(term)}$ is in ${_unit_text(d)}$, "
-                                            f"but ${entry_tex}$ is in ${_unit_text(want)}$",
-                                   {"term": self.L(term), "unit": _unit_text(d), "expected_unit": _unit_text(want)}))
-        return out[:3]
-
-    def _dependence(self, entry_tex, expected, answer) -> List[Finding]:
-        watched = set(self.angles) | {symbol("d" + c) for c in self.coords} | {symbol("dd" + c) for c in self.coords}
-        fe, fa = expected.free_symbols & watched, answer.free_symbols & watched
-        out = []
-        for s in sorted(fa - fe, key=lambda s: s.name):
-            out.append(Finding("dependence", f"your answer depends on ${self.L(s)}$, but ${entry_tex}$ does not",
-                               {"symbol": s.name, "expected": False}))
-        for s in sorted(fe - fa, key=lambda s: s.name):
-            out.append(Finding("dependence", f"${entry_tex}$ depends on ${self.L(s)}$, your answer does not",
-                               {"symbol": s.name, "expected": True}))
-        return out
-
-    def _terms(self, entry_tex, expected, answer) -> List[Finding]:
-        ge, ga = _groups(expected, self.angles), _groups(answer, self.angles)
-        out: List[Finding] = []
-        missing = [m for m in ge if m not in ga]
-        extra = [m for m in ga if m not in ge]
-        for m in ge:
-            if m not in ga:
-                continue
-            fe, fa = ge[m], ga[m]
-            if fe == fa:
-                continue
-            where = self._term_name(m)
-            r = _ratio(fa, fe)
-            if r is not None:
-                if r == -1:
-                    out.append(Finding("sign", f"the sign of the term {where} is wrong", {"term": self.L(m)}))
-                elif r in (2, sp.Rational(1, 2)):
-                    out.append(Finding("factor", f"the term {where} is off by a factor {'2' if r == 2 else '1/2'}",
-                                       {"term": self.L(m), "ratio": str(r)}))
-                else:
-                    out.append(Finding("coefficient", f"the numeric coefficient of the term {where} is wrong",
-                                       {"term": self.L(m)}))
-                continue
-            swapped = _ratio(_swap_sin_cos(fa), fe)
-            if swapped is not None:
-                extra_text = "" if abs(swapped) == 1 else ", and its numeric coefficient is wrong too"
-                out.append(Finding("sin_cos", f"in the term {where} a sine stands where a cosine belongs "
-                                              f"(or the other way round){extra_text}", {"term": self.L(m)}))
-                continue
-            ae, aa = _angles_of(fe), _angles_of(fa)
-            if ae != aa:
-                miss = ", ".join(f"${self.L(s)}$" for s in sorted(ae - aa, key=lambda s: s.name))
-                more = ", ".join(f"${self.L(s)}$" for s in sorted(aa - ae, key=lambda s: s.name))
-                text = f"the function of the angles in the term {where} is wrong"
-                text += (f": it should depend on {miss}" if miss else "") + (f"; it should not depend on {more}" if more else "")
-                out.append(Finding("function", text, {"term": self.L(m)}))
-            else:
-                out.append(Finding("function", f"the function of the angles in the term {where} is wrong "
-                                               "(check the trigonometric factor)", {"term": self.L(m)}))
-        for m in missing:
-            hint = _steiner_hint(m, self.robot)
-            out.append(Finding("missing_term", f"a term {self._term_name(m)} is missing{hint}", {"term": self.L(m)}))
-        for m in extra:
-            out.append(Finding("extra_term", f"the term {self._term_name(m)} should not be there", {"term": self.L(m)}))
-        return out
-
-    def _term_name(self, mono) -> str:
-        if mono == 1:
-            return "without parameters (a pure number or function of the angles)"
-        return f"in ${self.L(mono)}$"
-
-
-def _steiner_hint(mono, robot) -> str:
-    """' (a Steiner term: mass times a squared distance?)' when the monomial looks like one."""
-    powers = sp.Mul.make_args(mono)
-    masses = [f for f in powers if f.is_Symbol and robot.parameters.get(f.name) and robot.parameters[f.name].kind == "mass"]
-    squares = [f for f in powers if f.is_Pow and f.exp == 2 and robot.parameters.get(f.base.name if f.base.is_Symbol else "")
-               and robot.parameters[f.base.name].kind in ("length", "com")]
-    if len(masses) == 1 and squares and len(powers) == 2:
-        return " (a parallel-axis, Steiner, term: mass times a squared distance)"
-    return ""
-
-
-# ====================================================================== numbers
-def _digits(text: str) -> Tuple[int, int]:
-    """(decimals, significant digits) typed in a plain number."""
-    m = re.fullmatch(r"\s*[-+]?(\d*)(?:\.(\d*))?(?:[eE][-+]?\d+)?\s*", text)
-    if not m:
-        return (-1, 0)
-    whole, frac = m.group(1) or "", m.group(2) or ""
-    sig = len((whole + frac).lstrip("0")) if (whole + frac).strip("0") else 1
-    return (len(frac), sig)
-
-
-def numbers_match(text: str, typed: float, value: float) -> Tuple[bool, str]:
-    """Whether a typed number equals ``value`` up to the digits typed (half a unit of the last
-    decimal), with at least 3 significant digits unless it is exact; (ok, reason)."""
-    decimals, sig = _digits(text)
-    if abs(typed - value) <= 1e-9 * max(1.0, abs(value)):
-        return True, ""
-    if decimals < 0:
-        return False, "value"
-    if abs(typed - value) <= 0.5 * 10 ** (-decimals) * (1 + 1e-9) + 1e-12:
-        return (True, "") if sig >= 3 else (False, "digits")
-    return False, "value"
 
 
 # ====================================================================== entries
@@ -805,7 +321,7 @@ class _Checker:
             return self.verdict(False, "numeric", f"${self.tex}$: give at least 3 significant digits",
                                 [Finding("digits", "right to the digits you typed, but too few of them to tell")])
         findings = []
-        if value != 0 and abs(typed_v + value) <= 1e-6 * abs(value) + 0.5 * 10 ** (-max(_digits(self.answer)[0], 0)):
+        if value != 0 and abs(typed_v + value) <= 1e-6 * abs(value) + 0.5 * 10 ** (-max(typed_digits(self.answer)[0], 0)):
             findings.append(Finding("sign", "the sign is wrong"))
         elif value != 0 and typed_v != 0:
             r = typed_v / value
@@ -861,7 +377,7 @@ class _Checker:
                 return self.verdict(False, "symbolic", f"${self.tex}$ is {expected.rows}x{expected.cols}, yours "
                                     f"{typed.rows}x{typed.cols}", [Finding("shape", "the size is wrong")])
         numeric = all(e.is_number for e in expected) and all(e.is_number for e in typed)
-        parts = _split_top(self.answer.strip()[1:-1], ",;") if self.answer.strip().startswith("[") else []
+        parts = split_top(self.answer.strip()[1:-1], ",;") if self.answer.strip().startswith("[") else []
         findings, wrong = [], 0
         for k in range(len(expected)):
             i, j = divmod(k, expected.cols)
@@ -1004,7 +520,7 @@ def _linear_map(typed, a, known) -> Tuple[sp.Matrix, List[int]]:
     unknown_syms = set().union(*[x.free_symbols for x in a]) - set(known)
     rows, bad = [], []
     for i, y in enumerate(typed):
-        expr = sp.expand(_real(y) - sum(ti * ai for ti, ai in zip(t, a)))
+        expr = sp.expand(real_symbols(y) - sum(ti * ai for ti, ai in zip(t, a)))
         gens = sorted(unknown_syms | (expr.free_symbols - set(known) - set(t)), key=lambda s: s.name)
         if not gens:
             bad.append(i)
