@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 from scipy.optimize import fsolve
 
-from app.core.control import CONTROLLERS, GainError, make_controller, parse_gains
+from app.core.control import CONTROLLERS, make_controller
+from app.core.controller_base import GainError, parse_gains
 from app.core.numeric import ModelTerms, NumericModel, TaskPoint
 from app.core.robot import load_robot
 from app.core.sim import PointForce, Surface, simulate

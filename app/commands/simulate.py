@@ -95,7 +95,7 @@ def summary(res) -> dict:
 
 def options(args):
     """The SimOptions of the command line's options (a SimulationError names a bad one)."""
-    from app.core.control import parse_gains
+    from app.core.controller_base import parse_gains
     from app.core.sim import SimOptions
     from app.core.sim_input import parse_assignments, parse_numbers
     passive = None

@@ -11,6 +11,10 @@ forces) are its ``internals``.
 Gains are given by name, case-insensitively: ``Kp=100`` sets every entry, ``Kp2=50`` only the
 second one (entries follow the reference coordinates, or the coefficients for Gamma).
 
+The rooms: the base class, gains and their parsing in app/core/controller_base.py, the task-space
+controllers (impedance, admittance, hybrid) in app/core/control_cartesian.py; this module holds the
+joint-space, underactuated and elastic laws, the collision observer and ``CONTROLLERS``.
+
 >>> ct = make_controller("computed_torque", {"Kp": 100, "Kd2": 30})
 >>> ct.law_latex
 '\\\\tau = M(q)\\\\left(\\\\ddot q_d + K_D \\\\dot e + K_P e\\\\right) + c(q,\\\\dot q) + g(q)'
@@ -19,229 +23,16 @@ second one (entries follow the reference coordinates, or the coefficients for Ga
 """
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, field
-from typing import Callable, Dict, List, Mapping, Optional, Tuple
+from typing import Dict, Mapping, Optional
 
 import numpy as np
 import sympy as sp
 
-from .errors import UserError
-from .expressions import ExpressionError, parse_number
-
-
-class GainError(UserError):
-    """Unknown or unacceptable gain, or a controller that does not fit the robot."""
-
-
-class ControlStop(Exception):
-    """Raised by a controller inside a run to stop it with a message (e.g. a singular matrix)."""
-
-
-@dataclass(frozen=True)
-class Gain:
-    """A gain: ``size`` is 'ref' (one per reference coordinate), 'one' (a scalar) or 'param' (one
-    per estimated coefficient); ``positive``: must be > 0 (else >= 0); ``per_inertia``: the default
-    is multiplied by the diagonal entry M_ii(q0) of the controller's model, so that default
-    torque-level gains fit robots of any size (default * M_ii = w^2 M_ii for Kp = w^2)."""
-    name: str
-    default: float
-    doc: str
-    unit: str = ""
-    size: str = "ref"
-    positive: bool = True
-    per_inertia: bool = False
-
-
-@dataclass
-class ControlSetup:
-    """What a controller may know: the robot, its own model (``model``: numeric.ModelTerms at the
-    controller's parameter values), the control period, which joints are actuated, the initial
-    state, task points (``make_point(name)`` -> numeric.TaskPoint), the surfaces in the scene
-    ((name, kind, normal, offset) tuples, kind 'rigid' or 'wall') and a force sensor
-    (``read_force(point_name)`` -> force on the robot at that point, or None)."""
-    robot: object
-    model: object
-    period: float
-    actuated: np.ndarray
-    q0: np.ndarray
-    dq0: np.ndarray
-    make_point: Callable = None
-    task_point: Optional[object] = None
-    surfaces: List[tuple] = field(default_factory=list)
-    read_force: Callable = None
-
-
-# ====================================================================== base class
-class Controller:
-    """Base class; subclasses set the class attributes and implement ``step``."""
-    name = ""
-    title = ""
-    law_latex = ""
-    closed_loop = ""
-    gain_specs: Tuple[Gain, ...] = ()
-    needs_full_actuation = False
-    #: "joint" (references in coordinates, rad or m) or "task" (a point's position, m)
-    space = "joint"
-
-    def __init__(self, gains: Optional[Mapping[str, float]] = None):
-        self._requested: Dict[str, float] = {}
-        self.internal_names: List[str] = []
-        self.gain_arrays: Dict[str, np.ndarray] = {}
-        if gains:
-            self.set_gains(gains)
-
-    # -------------------------------------------------------------- gains
-    def _split(self, key: str) -> Tuple[Gain, Optional[int]]:
-        specs = {g.name.lower(): g for g in self.gain_specs}
-        low = key.strip().lower()
-        if low in specs:
-            return specs[low], None
-        base = low.rstrip("0123456789")
-        if base in specs and base != low:
-            return specs[base], int(low[len(base):])
-        names = ", ".join(g.name for g in self.gain_specs) or "none"
-        raise GainError(f"{self.name}: unknown gain '{key}' (its gains: {names}; add an index for one entry, e.g. Kp2)")
-
-    def set_gains(self, gains: Mapping[str, float]) -> None:
-        for key, value in gains.items():
-            spec, index = self._split(key)
-            try:
-                value = float(value)
-            except (TypeError, ValueError):
-                raise GainError(f"{self.name}: {key} must be a number, got {value!r}") from None
-            if not math.isfinite(value):
-                raise GainError(f"{self.name}: {key} must be finite")
-            if spec.positive and value <= 0:
-                raise GainError(f"{self.name}: {key} must be positive (got {value:g})")
-            if not spec.positive and value < 0:
-                raise GainError(f"{self.name}: {key} must not be negative (got {value:g})")
-            if index is not None and index < 1:
-                raise GainError(f"{self.name}: gain indices start at 1 ({key})")
-            self._requested[key.strip()] = value
-
-    def _gain_size(self, spec: Gain) -> int:
-        return {"ref": len(self.reference_names), "one": 1}.get(spec.size, 1)
-
-    def _resolve_gains(self) -> None:
-        arrays = {}
-        for spec in self.gain_specs:
-            size = self._gain_size(spec)
-            arr = np.full(size, float(spec.default))
-            if spec.per_inertia:
-                arr = arr * np.diag(self.model.M(self.s.q0))[self.ref_index]
-            for key, value in self._requested.items():
-                s, index = self._split(key)
-                if s is spec and index is None:
-                    arr[:] = value
-            for key, value in self._requested.items():
-                s, index = self._split(key)
-                if s is spec and index is not None:
-                    if index > size:
-                        raise GainError(f"{self.name}: {key}: {spec.name} has {size} entries")
-                    arr[index - 1] = value
-            arrays[spec.name] = arr
-        self.gain_arrays = arrays
-        for spec in self.gain_specs:      # scalars as floats, the others as arrays
-            arr = arrays[spec.name]
-            setattr(self, spec.name, float(arr[0]) if spec.size == "one" else arr)
-
-    # -------------------------------------------------------------- life cycle
-    def setup(self, s: ControlSetup) -> None:
-        """Bind to a robot and a model; decide the reference coordinates; resolve the gains."""
-        self.s = s
-        self.robot = s.robot
-        self.model = s.model
-        self.n = s.robot.n
-        self.dt = s.period
-        if self.needs_full_actuation and not np.all(s.actuated):
-            passive = [c for c, a in zip(s.robot.coordinates, s.actuated) if not a]
-            raise GainError(f"{self.name} needs every coordinate actuated; {', '.join(passive)} "
-                            f"{'is' if len(passive) == 1 else 'are'} passive (try partial feedback linearization, "
-                            "or declare no joint passive)")
-        self.reference_names, self.reference_start = self.reference_coordinates(s)
-        self.prepare(s)
-        self._resolve_gains()
-
-    def reference_coordinates(self, s: ControlSetup) -> Tuple[List[str], np.ndarray]:
-        """Names and initial values of the coordinates the reference is given in (default: q)."""
-        self.ref_index = np.arange(self.n)
-        return list(s.robot.coordinates), s.q0.copy()
-
-    def prepare(self, s: ControlSetup) -> None:
-        """Gain-independent preparation (compiled functions, checks)."""
-
-    def begin(self, reference) -> None:
-        """Called once with the reference (a trajectories.Reference) before the first step."""
-        self.reference = reference
-
-    def step(self, k: int, t: float, q, dq, qd, dqd, ddqd) -> np.ndarray:
-        raise NotImplementedError
-
-    def internals(self) -> np.ndarray:
-        """Current values of ``internal_names`` (after a step)."""
-        return np.zeros(0)
-
-    def measure(self, Q: np.ndarray, DQ: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
-        """The referenced quantity and its rate over recorded samples (default: joint values)."""
-        return Q[:, self.ref_index].copy(), DQ[:, self.ref_index].copy()
-
-    def describe_gains(self) -> str:
-        return "\n".join(f"  {g.name:7s} {g.doc} [{g.unit or '-'}], default {g.default:g}"
-                         + (" M_ii(q0)" if g.per_inertia else "") for g in self.gain_specs)
-
-
-CONTROLLERS: Dict[str, type] = {}
-
-
-def register(cls):
-    CONTROLLERS[cls.name] = cls
-    return cls
-
-
-def make_controller(name: str, gains: Optional[Mapping[str, float]] = None) -> Controller:
-    """A controller by name, with gains.
-
-    >>> make_controller("pid")
-    Traceback (most recent call last):
-    ...
-    app.core.control.GainError: unknown controller 'pid' (adaptive, admittance, computed_torque, elastic_pd, elastic_pd_online, hybrid, impedance, learning, pd, pd_gravity, pd_gravity_const, pfl_collocated, pfl_noncollocated, robust)
-    """
-    cls = CONTROLLERS.get(name)
-    if cls is None:
-        raise GainError(f"unknown controller '{name}' ({', '.join(sorted(CONTROLLERS))})")
-    return cls(gains)
-
-
-def parse_gains(text: Optional[str]) -> Dict[str, float]:
-    """``"Kp=100,Kd=20,Kp2=50"`` -> {'Kp': 100.0, 'Kd': 20.0, 'Kp2': 50.0}; values may use pi.
-
-    >>> parse_gains("Kp=100, Kd=2*10")        # exact: integers
-    {'Kp': 100.0, 'Kd': 20.0}
-    """
-    out: Dict[str, float] = {}
-    for item in (text or "").split(","):
-        item = item.strip()
-        if not item:
-            continue
-        if "=" not in item:
-            raise GainError(f"gains: expected name=value, got '{item}'")
-        key, raw = (x.strip() for x in item.split("=", 1))
-        if not key.replace("_", "").isalnum():
-            raise GainError(f"gains: '{key}' is not a gain name")
-        try:
-            out[key] = parse_number(raw)
-        except (ExpressionError, TypeError) as exc:
-            raise GainError(f"gains: {key}={raw}: {exc}") from None
-    return out
-
-
-_KP = Gain("Kp", 100.0, "proportional gain K_P on the acceleration (diagonal)", "1/s^2")
-_KD = Gain("Kd", 20.0, "derivative gain K_D on the acceleration (diagonal)", "1/s")
+from .control_cartesian import Admittance, Hybrid, Impedance
+from .controller_base import KD, KP, ControlSetup, ControlStop, Controller, Gain, GainError
 
 
 # ====================================================================== joint-space regulation and tracking
-@register
 class PD(Controller):
     name = "pd"
     title = "PD without gravity compensation"
@@ -255,7 +46,6 @@ class PD(Controller):
         return self.Kp * (qd - q) + self.Kd * (dqd - dq)
 
 
-@register
 class PDGravity(PD):
     name = "pd_gravity"
     title = "PD + on-line gravity compensation g(q)"
@@ -267,7 +57,6 @@ class PDGravity(PD):
         return super().step(k, t, q, dq, qd, dqd, ddqd) + self.model.gravity(q)
 
 
-@register
 class PDGravityConstant(PD):
     name = "pd_gravity_const"
     title = "PD + constant gravity compensation g(q_d)"
@@ -279,14 +68,13 @@ class PDGravityConstant(PD):
         return super().step(k, t, q, dq, qd, dqd, ddqd) + self.model.gravity(qd)
 
 
-@register
 class ComputedTorque(Controller):
     name = "computed_torque"
     title = "Computed torque (feedback linearization)"
     law_latex = r"\tau = M(q)\left(\ddot q_d + K_D \dot e + K_P e\right) + c(q,\dot q) + g(q)"
     closed_loop = ("With an exact model: e'' + K_D e' + K_P e = 0, decoupled and exponentially stable; "
                    "K_P = w^2, K_D = 2 zeta w.")
-    gain_specs = (_KP, _KD)
+    gain_specs = (KP, KD)
     needs_full_actuation = True
 
     def prepare(self, s):
@@ -296,7 +84,6 @@ class ComputedTorque(Controller):
         return self._id(q, dq, ddqd + self.Kd * (dqd - dq) + self.Kp * (qd - q))
 
 
-@register
 class Robust(Controller):
     name = "robust"
     title = "Computed torque + robust (sliding-mode-style) correction"
@@ -305,7 +92,7 @@ class Robust(Controller):
     closed_loop = ("e'' + K_D e' + K_P e = eta - w with eta the model error: w pushes along z with "
                    "magnitude rho >= |eta| (inside the boundary layer |z| < epsilon it is linear, "
                    "avoiding chattering), so the error reaches and stays near the surface z = 0.")
-    gain_specs = (_KP, _KD,
+    gain_specs = (KP, KD,
                   Gain("Lambda", 5.0, "slope of the sliding surface z = e' + Lambda e", "1/s"),
                   Gain("rho", 20.0, "magnitude of the robust correction w", "rad/s^2", "one"),
                   Gain("eps", 0.05, "boundary layer width on |z|", "rad/s", "one"))
@@ -328,7 +115,6 @@ class Robust(Controller):
         return np.array([self._nz])
 
 
-@register
 class Adaptive(Controller):
     name = "adaptive"
     title = "Adaptive control (Slotine-Li)"
@@ -401,7 +187,6 @@ def coefficient_values(robot, values: Mapping[str, float]) -> np.ndarray:
     return np.array([float(sp.sympify(a).xreplace(subs)) for a in par.a], dtype=float)
 
 
-@register
 class Learning(Controller):
     name = "learning"
     title = "Iterative learning for regulation (gravity feedforward learned over iterations)"
@@ -440,7 +225,7 @@ class Learning(Controller):
 # ====================================================================== underactuated and elastic robots
 class _PFL(Controller):
     collocated = True
-    gain_specs = (_KP, _KD)
+    gain_specs = (KP, KD)
 
     def reference_coordinates(self, s):
         act = np.flatnonzero(s.actuated)
@@ -485,7 +270,6 @@ class _PFL(Controller):
         return self._y
 
 
-@register
 class PFLCollocated(_PFL):
     name = "pfl_collocated"
     title = "Partial feedback linearization, collocated (actuated joints)"
@@ -496,7 +280,6 @@ class PFLCollocated(_PFL):
     collocated = True
 
 
-@register
 class PFLNonCollocated(_PFL):
     name = "pfl_noncollocated"
     title = "Partial feedback linearization, non-collocated (passive joints)"
@@ -507,7 +290,6 @@ class PFLNonCollocated(_PFL):
     collocated = False
 
 
-@register
 class ElasticPD(Controller):
     name = "elastic_pd"
     title = "Elastic joints: motor PD + link gravity compensation"
@@ -569,7 +351,6 @@ class ElasticPD(Controller):
         return self.theta_d
 
 
-@register
 class ElasticPDOnline(ElasticPD):
     name = "elastic_pd_online"
     title = "Elastic joints: motor PD + on-line gravity compensation"
@@ -593,171 +374,6 @@ class ElasticPDOnline(ElasticPD):
         Mo = self.motor_index
         tau[Mo] = self.Kp * (self.theta_d - q[Mo]) - self.Kd * dq[Mo] + g
         return tau
-
-
-# ====================================================================== Cartesian control and contact
-class _Cartesian(Controller):
-    """Controllers of a point's position p(q) in task coordinates (x, y for planar robots)."""
-    needs_full_actuation = True
-    space = "task"
-
-    def reference_coordinates(self, s):
-        robot = s.robot
-        name = s.task_point
-        if name is None:
-            name = "ee" if "ee" in robot.points else next(iter(robot.points), None)
-        if name is None:
-            raise GainError(f"{self.name} needs a point on the robot (the file of {robot.name} has no points)")
-        self.point = s.make_point(name)
-        if self.point.dim != self.n:
-            raise GainError(f"{self.name} needs as many joints as task coordinates: {robot.name} has {self.n} "
-                            f"joints and the point moves in {self.point.dim} dimensions")
-        return list(self.point.axes), self.point.position(s.q0)
-
-    def force(self) -> np.ndarray:
-        F = self.s.read_force(self.point.name)
-        return np.zeros(self.point.dim) if F is None else F
-
-    def reference_points(self, ref: np.ndarray) -> np.ndarray:
-        """World positions (N x 3) of the reference samples."""
-        return np.hstack([ref, np.zeros((ref.shape[0], 3 - ref.shape[1]))]) if ref.shape[1] < 3 else ref.copy()
-
-    def measure(self, Q, DQ):
-        X = np.array([self.point.position(q) for q in Q])
-        DX = np.array([self.point.jacobian(q) @ dq for q, dq in zip(Q, DQ)])
-        return self._to_task(X, DX)
-
-    def _to_task(self, X, DX):
-        return X, DX
-
-
-@register
-class Impedance(_Cartesian):
-    name = "impedance"
-    title = "Impedance control (Cartesian, with force measurement)"
-    law_latex = (r"\tau = M(q) J^{-1}(q)\left(\ddot p_d + M_m^{-1}\left(D_m \dot e + K_m e + F\right) - \dot J(q)\dot q\right)"
-                 r" + c(q,\dot q) + g(q) - J^T(q) F,\quad e = p_d - p")
-    closed_loop = ("M_m (p'' - p''_d) + D_m (p' - p'_d) + K_m (p - p_d) = F: the point behaves as a mass-spring-damper "
-                   "under the external force F (on the robot); at rest against a surface K_m (p - p_d) = F.")
-    gain_specs = (Gain("Mm", 2.0, "apparent mass M_m (diagonal)", "kg"),
-                  Gain("Dm", 60.0, "apparent damping D_m (diagonal)", "N s/m"),
-                  Gain("Km", 400.0, "apparent stiffness K_m (diagonal)", "N/m"))
-
-    def prepare(self, s):
-        self.internal_names = [f"F_{a}" for a in self.point.axes]
-        self._F = np.zeros(self.point.dim)
-
-    def step(self, k, t, q, dq, pd, dpd, ddpd):
-        p, J, jd = self.point.kinematics(q, dq)
-        dp = J @ dq
-        F = self.force()
-        self._F = F
-        a = ddpd + (self.Dm * (dpd - dp) + self.Km * (pd - p) + F) / self.Mm
-        return self.model.inverse_dynamics(q, dq, np.linalg.solve(J, a - jd)) - J.T @ F
-
-    def internals(self):
-        return self._F
-
-
-@register
-class Admittance(_Cartesian):
-    name = "admittance"
-    title = "Admittance control (compliant reference + Cartesian motion control)"
-    law_latex = (r"M_m \ddot p_r + D_m(\dot p_r - \dot p_d) + K_m (p_r - p_d) = F + M_m \ddot p_d,\quad "
-                 r"\tau = M(q) J^{-1}(q)\left(\ddot p_r + K_D(\dot p_r - \dot p) + K_P(p_r - p) - \dot J(q)\dot q\right)"
-                 r" + c(q,\dot q) + g(q)")
-    closed_loop = ("The measured force F bends the reference p_r through the admittance; a stiff inner motion loop "
-                   "makes p follow p_r, so p - p_d obeys the desired mass-spring-damper (up to the inner error).")
-    gain_specs = (Gain("Mm", 2.0, "admittance mass M_m (diagonal)", "kg"),
-                  Gain("Dm", 60.0, "admittance damping D_m (diagonal)", "N s/m"),
-                  Gain("Km", 400.0, "admittance stiffness K_m (diagonal)", "N/m"),
-                  Gain("Kp", 2500.0, "inner position gain K_P (diagonal)", "1/s^2"),
-                  Gain("Kd", 100.0, "inner velocity gain K_D (diagonal)", "1/s"))
-
-    def prepare(self, s):
-        axes = self.point.axes
-        self.internal_names = [f"p_r_{a}" for a in axes] + [f"F_{a}" for a in axes]
-        self.pr = self.point.position(s.q0)
-        self.dpr = self.point.jacobian(s.q0) @ s.dq0
-        self._out = np.concatenate([self.pr, np.zeros(self.point.dim)])
-
-    def step(self, k, t, q, dq, pd, dpd, ddpd):
-        p, J, jd = self.point.kinematics(q, dq)
-        dp = J @ dq
-        F = self.force()
-        ddpr = ddpd + (F - self.Dm * (self.dpr - dpd) - self.Km * (self.pr - pd)) / self.Mm
-        self._out = np.concatenate([self.pr, F])
-        a = ddpr + self.Kd * (self.dpr - dp) + self.Kp * (self.pr - p)
-        tau = self.model.inverse_dynamics(q, dq, np.linalg.solve(J, a - jd))
-        self.dpr = self.dpr + self.dt * ddpr            # semi-implicit Euler of the admittance
-        self.pr = self.pr + self.dt * self.dpr
-        return tau
-
-    def internals(self):
-        return self._out
-
-
-@register
-class Hybrid(_Cartesian):
-    name = "hybrid"
-    title = "Hybrid force/velocity control against a rigid surface"
-    law_latex = (r"\tau = M(q) J^{-1}(q)\left(t\, a_t - \dot J(q)\dot q\right) + c(q,\dot q) + g(q) - J^T(q)\, n\, f_c,\quad "
-                 r"a_t = \ddot s_d + K_D(\dot s_d - \dot s) + K_P(s_d - s),\quad "
-                 r"f_c = f_d + K_F \int (f_d - \lambda)\,dt")
-    closed_loop = ("On the surface (n^T p = const) the constraint force equals f_c, so lambda = f_d, and the motion "
-                   "along the tangent t obeys e_s'' + K_D e_s' + K_P e_s = 0: force and motion are decoupled. "
-                   "The integral action removes force errors caused by model mismatch.")
-    gain_specs = (_KP, _KD,
-                  Gain("Fd", 10.0, "desired normal force f_d pushed on the surface", "N", "one"),
-                  Gain("KF", 10.0, "integral gain of the force loop", "1/s", "one", positive=False))
-
-    def reference_coordinates(self, s):
-        rigid = [x for x in s.surfaces if x[1] == "rigid"]
-        if not rigid:
-            raise GainError("hybrid control needs a rigid surface (e.g. --surface 'ee normal=0,1')")
-        names, _ = super().reference_coordinates(s)
-        surf = next((x for x in rigid if x[0] == self.point.name), None)
-        if surf is None:
-            raise GainError(f"hybrid: the rigid surface touches {rigid[0][0]}, the task point is {self.point.name}")
-        self.normal = np.asarray(surf[2], dtype=float)
-        # tangent basis: complete n to an orthonormal frame
-        dim = self.point.dim
-        if dim == 2:      # t = n rotated by -90 degrees: s = x on a floor with n = (0, 1)
-            T = np.array([[self.normal[1]], [-self.normal[0]]])
-        else:
-            U, _, _ = np.linalg.svd(self.normal.reshape(3, 1))
-            T = U[:, 1:]
-        self.T = T
-        self.ref_names = ["s"] if dim == 2 else ["s1", "s2"]
-        return self.ref_names, T.T @ self.point.position(s.q0)
-
-    def prepare(self, s):
-        self.internal_names = ["lambda", "f_c"]
-        self._I = 0.0
-        self._out = np.zeros(2)
-
-    def step(self, k, t, q, dq, sd, dsd, ddsd):
-        p, J, jd = self.point.kinematics(q, dq)
-        dp = J @ dq
-        s_, ds_ = self.T.T @ p, self.T.T @ dp
-        lam = float(self.normal @ self.force())
-        fc = self.Fd + self.KF * self._I
-        self._I += self.dt * (self.Fd - lam)
-        self._out = np.array([lam, fc])
-        a_t = ddsd + self.Kd * (dsd - ds_) + self.Kp * (sd - s_)
-        acc = np.linalg.solve(J, self.T @ a_t - jd)
-        return self.model.inverse_dynamics(q, dq, acc) - J.T @ (self.normal * fc)
-
-    def internals(self):
-        return self._out
-
-    def _to_task(self, X, DX):
-        return X @ self.T, DX @ self.T
-
-    def reference_points(self, ref):
-        # the point of the surface at tangential coordinate s: T s + n offset
-        offset = float(self.normal @ self.point.position(self.s.q0))
-        return super().reference_points(ref @ self.T.T + offset * self.normal)
 
 
 # ====================================================================== collision detection
@@ -808,3 +424,25 @@ class MomentumObserver:
             self.I = I1 + dt / 2 * self.r
         self._tau, self._beta_prev = np.array(tau, dtype=float), beta
         return self.r
+
+
+# ====================================================================== by name
+#: every controller by its ``name`` (command line, page, ``make_controller``)
+CONTROLLERS: Dict[str, type] = {cls.name: cls for cls in (
+    PD, PDGravity, PDGravityConstant, ComputedTorque, Robust, Adaptive, Learning, PFLCollocated,
+    PFLNonCollocated, ElasticPD, ElasticPDOnline, Impedance, Admittance, Hybrid,
+)}
+
+
+def make_controller(name: str, gains: Optional[Mapping[str, float]] = None) -> Controller:
+    """A controller by name, with gains.
+
+    >>> make_controller("pid")
+    Traceback (most recent call last):
+    ...
+    app.core.controller_base.GainError: unknown controller 'pid' (adaptive, admittance, computed_torque, elastic_pd, elastic_pd_online, hybrid, impedance, learning, pd, pd_gravity, pd_gravity_const, pfl_collocated, pfl_noncollocated, robust)
+    """
+    cls = CONTROLLERS.get(name)
+    if cls is None:
+        raise GainError(f"unknown controller '{name}' ({', '.join(sorted(CONTROLLERS))})")
+    return cls(gains)

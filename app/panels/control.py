@@ -347,7 +347,7 @@ class ControlPanel:
     # -------------------------------------------------------------- running
     def settings(self) -> Dict:
         """The keyword arguments of ``simulate`` from the fields (raises UserError on bad input)."""
-        from app.core.control import parse_gains
+        from app.core.controller_base import parse_gains
         session = self.session
         name = self._name()
         kind = self.ref_kind.value
