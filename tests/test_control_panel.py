@@ -5,7 +5,8 @@ import time
 import numpy as np
 import pytest
 
-from app.panels.control import AUTO_RERUN_DELAY, plot_groups, plots_png
+from app.panels.control import AUTO_RERUN_DELAY
+from app.panels.control_plots import plot_groups, plots_png
 from app.viewer import screenshot as shots
 
 
