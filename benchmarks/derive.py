@@ -120,7 +120,7 @@ def figures() -> list:
 def main(repeats: int = 3) -> None:
     print("Derivation, cold: our memories and sympy's cache emptied before every run; CPU seconds (wall "
           "in brackets), median of %d runs interleaved round by round" % repeats)
-    print(f"{'robot':<18}{'ours':>14}{'mechanics':>14}{'+ simplify':>14}{'speed-up':>9}{'(plain)':>9}")
+    print(f"{'robot':<18}{'ours':>16}{'mechanics':>16}{'+ simplify':>16}{'speed-up':>9}{'(plain)':>9}")
     for name in ROBOTS:
         robot = load_robot(HERE / f"{name}.yaml")
         runs = {"ours": [], "plain": [], "simplify": []}
@@ -129,7 +129,7 @@ def main(repeats: int = 3) -> None:
             runs["plain"].append(cold(lambda: mechanics_baseline(robot, simplify=False)))
             runs["simplify"].append(cold(lambda: mechanics_baseline(robot, simplify=True)))
         med = {k: (statistics.median(c for c, _ in v), statistics.median(w for _, w in v)) for k, v in runs.items()}
-        cells = "".join(f"{f'{c:.2f} ({w:.2f})':>14}" for c, w in med.values())
+        cells = "".join(f"{f'{c:.2f} ({w:.2f})':>16}" for c, w in med.values())
         print(f"{name:<18}{cells}{med['simplify'][0] / med['ours'][0]:>8.1f}x{med['plain'][0] / med['ours'][0]:>8.1f}x",
               flush=True)
     print("\nNumeric M, C, g per call (microseconds)")
