@@ -243,18 +243,23 @@ class LightClient(Client):
             if abs(value - self.sent[-1]) > 1e-9:
                 return value
 
+    def round_trip(self, timeout: float) -> Optional[float]:
+        """Move q1 to a new value of this client's; seconds until link1's pose at that angle comes
+        back (None after ``timeout``)."""
+        target = self.value()
+        with self.cond:
+            seen = len(self.link1)
+        self.sent.append(target)
+        start = time.perf_counter()
+        self.update(self.slider, target)
+        got = self.wait(lambda: any(_angle_gap(q, target) < 1e-6 for q in self.link1[seen:]), timeout)
+        if not got and os.environ.get("R2LOAD_DEBUG"):
+            print(f"client {self.index}: lost {target}; received since {self.link1[seen:]}", flush=True)
+        return time.perf_counter() - start if got else None
+
     def run(self) -> None:
         while not self.stop.is_set():
-            target = self.value()
-            with self.cond:
-                seen = len(self.link1)
-            self.sent.append(target)
-            start = time.perf_counter()
-            self.update(self.slider, target)
-            got = self.wait(lambda: any(_angle_gap(q, target) < 1e-6 for q in self.link1[seen:]), LOST_AFTER)
-            self.samples.append((self.phase, time.perf_counter() - start if got else None))
-            if not got and os.environ.get("R2LOAD_DEBUG"):
-                print(f"client {self.index}: lost {target}; received since {self.link1[seen:]}", flush=True)
+            self.samples.append((self.phase, self.round_trip(LOST_AFTER)))
             self.stop.wait(self.rng.uniform(0.5, 1.5))
 
     def foreign_angles(self) -> int:

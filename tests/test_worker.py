@@ -53,16 +53,9 @@ def _client(lab):
 
 def _slider_round_trip(client) -> float:
     """Move q1 to a new value; seconds until the pose comes back (raises after SLIDER_BOUND_S * 5)."""
-    from benchmarks.load import _angle_gap
-    target = client.value()
-    with client.cond:
-        seen = len(client.link1)
-    client.sent.append(target)
-    start = time.perf_counter()
-    client.update(client.slider, target)
-    got = client.wait(lambda: any(_angle_gap(q, target) < 1e-6 for q in client.link1[seen:]), SLIDER_BOUND_S * 5)
-    assert got, f"no pose for q1 = {target}"
-    return time.perf_counter() - start
+    seconds = client.round_trip(SLIDER_BOUND_S * 5)
+    assert seconds is not None, f"no pose for q1 = {client.sent[-1]}"
+    return seconds
 
 
 def _start_heavy(lab, session, messages):

@@ -22,7 +22,7 @@ from app.core.throw.montecarlo import Study, histogram
 from app.core.throw.study import closed_loop_study
 from app.viewer import in_worker
 
-from .throw_plots import BLOCK, status_html
+from .throw_plots import BLOCK, StudioTab, status_html
 
 #: controller colours (open, vhc, transverse)
 COLORS = {"open": "#c0392b", "vhc": "#e69f00", "transverse": "#2e5eaa"}
@@ -126,16 +126,15 @@ def summary_table(study: Study, controllers) -> str:
             f'release speed {study.planned_speed:.4f} m/s; {study.plants} plants, seed {study.seed}.</div>')
 
 
-class ClosedLoopTab:
+class ClosedLoopTab(StudioTab):
     """Widgets of the *Closed loop* tab; ``studio`` is the ThrowStudio (its ``view`` is the throw on display)."""
 
     def __init__(self, studio):
-        self.studio = studio
+        super().__init__(studio, "Run the throw on display in the full 3-DOF dynamics on plants that differ from the "
+                                 "model (wrist passive): the plan's torques open loop, the VHC enforced by feedback, "
+                                 "or the transverse LQR stabilizer of the orbit. Plants are drawn from the ranges "
+                                 "below (a seeded Monte-Carlo study).")
         gui = studio.gui
-        gui.add_html(f'<div class="r2-label" style="font-size:0.8em;color:#444;{BLOCK}">Run the throw on display in '
-                     'the full 3-DOF dynamics on plants that differ from the model (wrist passive): the plan\'s '
-                     'torques open loop, the VHC enforced by feedback, or the transverse LQR stabilizer of the orbit. '
-                     'Plants are drawn from the ranges below (a seeded Monte-Carlo study).</div>')
         plants = list_plant_names()
         self.plant = gui.add_dropdown("Plant", plants, initial_value="heavier" if "heavier" in plants else plants[0],
                                       hint="the arm actually driven (app/throws/plants): its parameters, friction, "
@@ -189,9 +188,7 @@ class ClosedLoopTab:
     def run(self, wait: bool = False):
         """Run the study for the throw on display (in the background; ``wait`` blocks until done)."""
         studio = self.studio
-        view = studio.view
-        if view is None or studio.error:
-            raise UserError("there is no throw to run: " + (studio.error or "none solved yet"))
+        view = self.throw_on_display("run")
         if self._running:
             raise UserError("the closed-loop study is already running")
         plant = self.plant_with_ranges()      # validated like a plant file
@@ -229,9 +226,7 @@ class ClosedLoopTab:
     def throw_and_catch(self, wait: bool = False):
         """Throw the ball on the chosen plant, watch it with the camera and catch it (in the background)."""
         studio = self.studio
-        view = studio.view
-        if view is None or studio.error:
-            raise UserError("there is no throw to catch: " + (studio.error or "none solved yet"))
+        view = self.throw_on_display("catch")
         plant = load_plant(self.plant.value)
         controller, seed = self.catch_controller.value, int(self.seed.value)
         rate, noise = float(self.camera_rate.value), 1e-3 * float(self.camera_noise.value)

@@ -13,20 +13,19 @@ from app.core.throw.optimize import DEFAULT_EVALUATIONS
 from app.core.throw.study import optimize_and_verify, verify_throw
 from app.viewer import in_worker
 
-from .throw_plots import BLOCK, status_html, verification_html
+from .throw_plots import StudioTab, status_html, verification_html
 
 OBJECTIVES = {"thesis convention (θ̇ along ψ)": "thesis", "true ball velocity (J q̇)": "physical"}
 
 
-class OptimizeTab:
+class OptimizeTab(StudioTab):
     """Widgets of the *Optimize* tab; ``studio`` is the ThrowStudio (its ``view`` is the throw on display)."""
 
     def __init__(self, studio):
-        self.studio = studio
+        super().__init__(studio, "Maximize the distance from the base over the control points (degree 6), θb, θe, "
+                                 "ψ and k under every limit of Table A.2 (and q1 ≥ π/6 of eq. 4.5), then confirm the "
+                                 "best throw in the full 3-DOF dynamics.")
         gui = studio.gui
-        gui.add_html(f'<div class="r2-label" style="font-size:0.8em;color:#444;{BLOCK}">Maximize the distance from the '
-                     'base over the control points (degree 6), θb, θe, ψ and k under every limit of Table A.2 '
-                     '(and q1 ≥ π/6 of eq. 4.5), then confirm the best throw in the full 3-DOF dynamics.</div>')
         self.objective = gui.add_dropdown("Objective", list(OBJECTIVES), initial_value=list(OBJECTIVES)[0],
                                           hint="which release velocity the distance uses")
         self.budget = gui.add_slider("Budget [evaluations]", min=2000, max=60000, step=1000,
@@ -105,9 +104,7 @@ class OptimizeTab:
     def verify(self, wait: bool = False):
         """Simulate the throw on display in the full dynamics (both controllers) and show the drifts."""
         studio = self.studio
-        view = studio.view
-        if view is None or studio.error:
-            raise UserError("there is no throw to verify: " + (studio.error or "none solved yet"))
+        view = self.throw_on_display("verify")
         self.verify_button.disabled = True
         self.verification.content = status_html("simulating the full arm ...")
         arm = view.throw.arm

@@ -18,6 +18,8 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from app.core.errors import UserError
+
 from app.core.throw.reduced import Feasibility
 from app.core.throw.study import ThrowView
 from app.scene import PALETTE
@@ -32,6 +34,20 @@ FLIGHTS = {"true": ("true velocity J(q) q̇", (200, 40, 40)),
            "thesis": ("thesis convention: θ̇ along ψ", (110, 110, 120))}
 #: side margins of the studio's HTML blocks, aligned with viser's widgets and clear of the panel's scrollbar
 BLOCK = "padding:0 14px 0 9px"
+
+
+class StudioTab:
+    """A tab of the Throw studio: its widgets go in ``studio.gui`` below a short introduction."""
+
+    def __init__(self, studio, intro: str):
+        self.studio = studio
+        studio.gui.add_html(f'<div class="r2-label" style="font-size:0.8em;color:#444;{BLOCK}">{intro}</div>')
+
+    def throw_on_display(self, to: str) -> ThrowView:
+        """The studio's throw on display; UserError ("there is no throw to ``to``") when none is."""
+        if self.studio.view is None or self.studio.error:
+            raise UserError(f"there is no throw to {to}: " + (self.studio.error or "none solved yet"))
+        return self.studio.view
 
 
 def hex_color(rgb: Sequence[int]) -> str:
