@@ -94,7 +94,7 @@ def test_monte_carlo_is_seeded(planned):
     assert np.array_equal(a.params, b.params) and np.array_equal(a.coulomb, b.coulomb)
     c = draw_plants(planned, plant, 6, seed=6)
     assert not np.array_equal(a.params, c.params)
-    k = planned.arm._param_names.index("m3")
+    k = planned.arm.parameter_names.index("m3")
     factors = a.params[k] / (planned.arm.values["m3"] * 1.1)
     assert np.all(np.abs(factors - 1) <= 0.05 + 1e-12) and np.ptp(factors) > 0
 

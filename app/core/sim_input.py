@@ -11,7 +11,7 @@ from typing import Dict, List, Optional, Union
 import numpy as np  # noqa: F401 (doctests)
 
 from .errors import SimulationError
-from .expressions import ExpressionError, parse_expression
+from .expressions import ExpressionError, parse_number
 from .sim_plant import PointForce, Surface
 
 
@@ -29,7 +29,7 @@ def parse_numbers(text: Optional[str], what: str) -> Optional[List[float]]:
         if not part:
             continue
         try:
-            out.append(float(parse_expression(part, allowed_names=())))
+            out.append(parse_number(part))
         except (ExpressionError, TypeError) as exc:
             raise SimulationError(f"{what}: '{part}' is not a number ({exc})") from None
     if not out:

@@ -30,7 +30,7 @@ import threading
 from typing import Callable, Optional
 
 from app.core.errors import UserError
-from app.core.expressions import ExpressionError, excerpt, parse_expression
+from app.core.expressions import ExpressionError, excerpt, parse_number
 from app.core.robot_model import ParameterError
 
 COMMIT_DELAY = 0.6       # seconds without a keystroke that count as "done typing"
@@ -125,7 +125,7 @@ def parse_parameter(robot, name: str, text: str) -> float:
     if not text:
         raise ParameterError(f"{name}: empty value; type a number")
     try:
-        value = float(parse_expression(text, allowed_names=()))
+        value = parse_number(text)
     except (ExpressionError, TypeError, ValueError):
         raise ParameterError(f"{name}: {excerpt(text)} is not a number") from None
     return robot.check_parameter_value(name, value)

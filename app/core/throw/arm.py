@@ -75,13 +75,15 @@ class ThrowingArm:
         self.l1, self.l2, self.l3 = (self.values[n] for n in ("l1", "l2", "l3"))
         self.shoulder_height = self.values["platform"] + self.values["l0"]
         self.g = self.values["g"]
-        self._param_names = list(robot.parameters)
-        self._k_index = self._param_names.index("k")
+        self.parameter_names = list(robot.parameters)
+        self._k_index = self.parameter_names.index("k")
         dyn = derive(robot)
         q, dq, p = robot.q, robot.dq, robot.parameter_symbols
-        self._fM = compiled_function(robot, "vhc:M", [q, p], list(dyn.M))
-        self._fc = compiled_function(robot, "vhc:c", [q, dq, p], list(dyn.c))
-        self._fG = compiled_function(robot, "vhc:G", [q, p], list(dyn.g + dyn.spring))
+        # compiled M(q, p) (9 entries), c(q, q', p) and g(q, p) + spring (3 each), p = parameter_vector(k):
+        # entries broadcast over arrays of q (the reduced dynamics and the closed-loop plants use them)
+        self.mass_matrix_fn = compiled_function(robot, "vhc:M", [q, p], list(dyn.M))
+        self.coriolis_fn = compiled_function(robot, "vhc:c", [q, dq, p], list(dyn.c))
+        self.gravity_spring_fn = compiled_function(robot, "vhc:G", [q, p], list(dyn.g + dyn.spring))
         self.limits = self._read_limits()
         self._check_kinematics()
 
@@ -130,8 +132,9 @@ class ThrowingArm:
         return (self.l1 * np.cos(q[0] - psi) + self.l2 * np.cos(q[0] + q[1] - psi)
                 + self.l3 * np.cos(q[0] + q[1] + q[2] - psi))
 
-    def _params(self, k) -> list:
-        p = [self.values[n] for n in self._param_names]
+    def parameter_vector(self, k) -> list:
+        """The robot's parameter values in the compiled functions' order, with the wrist spring ``k``."""
+        p = [self.values[n] for n in self.parameter_names]
         p[self._k_index] = k
         return p
 
@@ -191,10 +194,10 @@ class ThrowingArm:
         st = ConstraintState(theta, q, dq, ddq, u)
         if dynamics:
             shape = theta.shape
-            p = self._params(batch.k)
-            M = np.stack([np.broadcast_to(e, shape) for e in self._fM(q, p)]).reshape((3, 3) + shape)
-            c = np.stack([np.broadcast_to(e, shape) for e in self._fc(q, dq, p)])
-            G = np.stack([np.broadcast_to(e, shape) for e in self._fG(q, p)])
+            p = self.parameter_vector(batch.k)
+            M = np.stack([np.broadcast_to(e, shape) for e in self.mass_matrix_fn(q, p)]).reshape((3, 3) + shape)
+            c = np.stack([np.broadcast_to(e, shape) for e in self.coriolis_fn(q, dq, p)])
+            G = np.stack([np.broadcast_to(e, shape) for e in self.gravity_spring_fn(q, p)])
             st.alpha = np.einsum("ij...,j...->i...", M, dq)
             st.beta = np.einsum("ij...,j...->i...", M, ddq) + c
             st.gamma = G

@@ -50,12 +50,12 @@ def _dynamics(arm: ThrowingArm, q: np.ndarray, dq: np.ndarray, p):
     B = q.shape[1]
     if B == 1:     # scalars: numpy's per-call overhead dominates on arrays of one element
         q, dq, p = [float(v) for v in q[:, 0]], [float(v) for v in dq[:, 0]], [float(np.ravel(v)[0]) for v in p]
-        M = np.array(arm._fM(q, p), dtype=float).reshape(1, 3, 3)
-        h = np.array(arm._fc(q, dq, p), dtype=float) + np.array(arm._fG(q, p), dtype=float)
+        M = np.array(arm.mass_matrix_fn(q, p), dtype=float).reshape(1, 3, 3)
+        h = np.array(arm.coriolis_fn(q, dq, p), dtype=float) + np.array(arm.gravity_spring_fn(q, p), dtype=float)
         return M, h.reshape(1, 3)
-    M = np.array(np.broadcast_arrays(*arm._fM(q, p), np.empty(B))[:9]).T.reshape(B, 3, 3)
-    c = np.array(np.broadcast_arrays(*arm._fc(q, dq, p), np.empty(B))[:3]).T
-    G = np.array(np.broadcast_arrays(*arm._fG(q, p), np.empty(B))[:3]).T
+    M = np.array(np.broadcast_arrays(*arm.mass_matrix_fn(q, p), np.empty(B))[:9]).T.reshape(B, 3, 3)
+    c = np.array(np.broadcast_arrays(*arm.coriolis_fn(q, dq, p), np.empty(B))[:3]).T
+    G = np.array(np.broadcast_arrays(*arm.gravity_spring_fn(q, p), np.empty(B))[:3]).T
     return M, c + G
 
 
@@ -93,7 +93,7 @@ class _Plan:
         self.arm = arm = throw.arm
         self.spec = spec = throw.spec
         self.D = throw.delta
-        self.p = arm._params(spec.k)
+        self.p = arm.parameter_vector(spec.k)
         self.a = np.asarray(spec.a, dtype=float)
         self.b = np.asarray(spec.b, dtype=float)
         self.power = [np.stack([_power_basis(self.a), _power_basis(self.b)], axis=1)]   # (n + 1, 2) in s
@@ -204,9 +204,9 @@ def _passive_row(plan: _Plan, theta, thd, thdd, y, yd, ydd):
     q, dq, ddq = state_of(plan, theta, thd, thdd, y, yd, ydd)
     arm = plan.arm
     shape = np.broadcast(q[0], dq[0]).shape
-    M = [np.broadcast_to(e, shape) for e in arm._fM(q, plan.p)]
-    c = np.broadcast_to(arm._fc(q, dq, plan.p)[2], shape)
-    g = np.broadcast_to(arm._fG(q, plan.p)[2], shape)
+    M = [np.broadcast_to(e, shape) for e in arm.mass_matrix_fn(q, plan.p)]
+    c = np.broadcast_to(arm.coriolis_fn(q, dq, plan.p)[2], shape)
+    g = np.broadcast_to(arm.gravity_spring_fn(q, plan.p)[2], shape)
     return M[6] * ddq[0] + M[7] * ddq[1] + M[8] * ddq[2] + c + g
 
 

@@ -14,8 +14,9 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from ..errors import UserError
-from ..expressions import excerpt, parse_expression
+from ..expressions import excerpt, parse_number
 from ..files import load_yaml, read_user_file
+from ..robot_model import refuse_negative
 from .bezier import elevate_bezier
 
 Progress = Optional[Callable[[float, str], None]]
@@ -67,10 +68,10 @@ class ThrowSpec:
             raise UserError("Bezier control points must be finite numbers")
         if not self.theta_e > self.theta_b:
             raise UserError(f"theta_e ({self.theta_e:g} m) must be greater than theta_b ({self.theta_b:g} m)")
-        if self.k < 0:
-            raise UserError(f"k: the wrist spring must not be negative (got {self.k:g})")
-        if self.theta_dot_b < 0:
-            raise UserError(f"theta_dot_b: the initial speed must not be negative (got {self.theta_dot_b:g})")
+        problem = (refuse_negative("k: the wrist spring", self.k)
+                   or refuse_negative("theta_dot_b: the initial speed", self.theta_dot_b))
+        if problem:
+            raise UserError(problem)
         if self.branch not in (1, -1):
             raise UserError(f"branch: expected +1 or -1, got {self.branch!r}")
 
@@ -156,7 +157,7 @@ def _number(value, where: str) -> float:
         out = float(value) if abs(value) <= 1e308 else math.inf
     elif isinstance(value, str):
         try:
-            out = float(parse_expression(value, allowed_names=()))
+            out = parse_number(value)
         except (UserError, TypeError) as exc:
             raise UserError(f"{where}: expected a number: {exc}") from None
     else:

@@ -18,6 +18,7 @@ import numpy as np
 import yaml
 
 from ..errors import UserError
+from ..robot_model import refuse_negative
 
 if TYPE_CHECKING:
     from .arm import ThrowingArm
@@ -95,8 +96,9 @@ class Plant:
         for name in ("m1", "m2", "m3", "J1", "J2", "J3"):
             if out.get(name, 1.0) <= 0:
                 raise UserError(f"plant: {name} must be positive (got {out[name]:g})")
-        if out["k"] < 0:
-            raise UserError(f"plant: the spring k must not be negative (got {out['k']:g})")
+        problem = refuse_negative("plant: the spring k", out["k"])
+        if problem:
+            raise UserError(problem)
         return out
 
     def to_config(self) -> dict:
@@ -195,7 +197,7 @@ class PlantBatch:
 
 
 def plant_batch(arm: ThrowingArm, k: float, values: Sequence[Mapping[str, float]], viscous, coulomb) -> PlantBatch:
-    names = arm._param_names
+    names = arm.parameter_names
     params = np.array([[float(v[n]) for v in values] for n in names])
     return PlantBatch(params, np.asarray(viscous, dtype=float), np.asarray(coulomb, dtype=float))
 

@@ -20,7 +20,8 @@ import numpy as np
 
 from ..ballistics import Flight
 from ..errors import UserError
-from ..expressions import ExpressionError, excerpt, parse_expression
+from ..expressions import ExpressionError, excerpt, parse_number
+from ..robot_model import refuse_negative
 from .arm import ThrowingArm
 from .bezier import elevate_bezier
 from .closed_loop import CONTROLLERS
@@ -111,7 +112,7 @@ def parse_points(text: str, name: str) -> List[float]:
     values = []
     for p in parts:
         try:
-            v = float(parse_expression(p, allowed_names=()))
+            v = parse_number(p)
         except (ExpressionError, UserError, TypeError, ValueError, ZeroDivisionError):
             raise UserError(f"{name}: '{p}' is not a number") from None
         if not math.isfinite(v):
@@ -143,13 +144,14 @@ def parse_stiffness(text: str) -> float:
     app.core.errors.UserError: k: the wrist spring must not be negative (got -3)
     """
     try:
-        value = float(parse_expression(text.strip(), allowed_names=()))
+        value = parse_number(text.strip())
     except (ExpressionError, TypeError, ValueError):
         raise UserError(f"k: {excerpt(text)} is not a number") from None
     if not math.isfinite(value):
         raise UserError(f"k: expected a finite number, got {excerpt(text)}")
-    if value < 0:
-        raise UserError(f"k: the wrist spring must not be negative (got {value:g})")
+    problem = refuse_negative("k: the wrist spring", value)
+    if problem:
+        raise UserError(problem)
     return value
 
 
