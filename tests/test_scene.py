@@ -174,3 +174,21 @@ def test_the_meshes_are_closed_face_outwards_and_have_their_volumes():
         edges = [(int(a), int(b)) for f in mesh.faces for a, b in ((f[0], f[1]), (f[1], f[2]), (f[2], f[0]))]
         assert len(set(edges)) == len(edges) and set(edges) == {(b, a) for a, b in edges}
         assert mesh.volume == pytest.approx(volume, rel=0.05)
+
+
+def test_the_drawing_as_a_mesh_file_is_the_drawing_at_that_pose(tmp_path):
+    """``export ROBOT --mesh``: every part placed at q, its colour kept, written and read back by trimesh."""
+    import trimesh
+    drawing = RobotDrawing(load_robot("planar_2r"))
+    q = np.array([0.5, 0.3])
+    mesh = drawing.mesh_at(q)
+    lo, hi = drawing.bounds([q])                      # the framing's (conservative) box holds it
+    assert np.all(mesh.bounds[0] >= lo - 1e-9) and np.all(mesh.bounds[1] <= hi + 1e-9)
+    link2 = next(p for p in drawing.parts if p.name == "bar0" and p.attach == "link2")
+    tip = drawing.poses(q)["link2"] @ np.append(link2.segment[1], 1.0)
+    assert np.min(np.linalg.norm(mesh.vertices - tip[:3], axis=1)) < np.ptp(link2.mesh.bounds) / 2
+    path = tmp_path / "planar_2r.ply"
+    mesh.export(path)
+    back = trimesh.load(path, force="mesh", process=False)
+    assert len(back.faces) == sum(len(p.mesh.faces) for p in drawing.parts)
+    assert {tuple(c[:3]) for c in back.visual.face_colors} >= {tuple(p.color) for p in drawing.parts}

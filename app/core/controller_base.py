@@ -6,7 +6,7 @@ name, set-up for a robot, reference coordinates, the step interface), its docume
 Gains are given by name, case-insensitively: ``Kp=100`` sets every entry, ``Kp2=50`` only the
 second one (entries follow the reference coordinates, or the coefficients for Gamma).
 
->>> parse_gains("Kp=100, Kp2=2*pi")["Kp"]
+>>> parse_gains("Kp=100, Kp2=2*pi")["Kp"]      # exact: parsed from text
 100.0
 """
 from __future__ import annotations
