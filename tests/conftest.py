@@ -71,45 +71,19 @@ def pytest_runtest_makereport(item, call):
 SOLUTION_MODULES = ("test_exercises.py", "test_readable_steps.py", "test_latex_out.py")
 
 
-#: the browser modules, in as many groups as ``make test`` has workers, each group at the head of
-#: one worker's share: every worker drives its own Chromium from the start, instead of one worker
-#: running every browser test in a row while the others run out of work (worksteal takes items from
-#: the end of a worker's share, never the browser tests at its head)
-BROWSER_GROUPS = (("test_browser_page.py",),
-                  ("test_browser_throw.py", "test_browser_study.py"),
-                  ("test_browser.py", "test_browser_exercises.py", "test_control_panel.py", "test_server_restart.py"))
-
-
-def pytest_collection_modifyitems(config, items):
+def pytest_collection_modifyitems(items):
     """Put the checks of one exercise's solution next to each other (answers, readability, LaTeX):
     pytest-xdist's worksteal hands each worker a contiguous run of items, so a solution is then
-    computed once per run (the ``solved`` fixture) instead of once per worker. Under pytest-xdist,
-    spread the browser modules over the workers' shares (``BROWSER_GROUPS``)."""
+    computed once per run (the ``solved`` fixture) instead of once per worker."""
     grouped = [i for i in items if i.path.name in SOLUTION_MODULES and hasattr(i, "callspec")]
-    if grouped:
-        first = items.index(grouped[0])
-        chosen = set(map(id, grouped))
-        rest = [i for i in items if id(i) not in chosen]
-        order = {name: k for k, name in enumerate(SOLUTION_MODULES)}
-        grouped.sort(key=lambda i: (i.callspec.id, order[i.path.name]))
-        items[:] = rest[:first] + grouped + rest[first:]
-    workers = getattr(config.option, "numprocesses", None)
-    if isinstance(workers, int) and workers > 1:
-        _spread_browser_modules(items, workers)
-
-
-def _spread_browser_modules(items, workers: int) -> None:
-    groups = [[i for i in items if i.path.name in names] for names in BROWSER_GROUPS[:workers]]
-    chosen = {id(i) for group in groups for i in group}
+    if not grouped:
+        return
+    first = items.index(grouped[0])
+    chosen = set(map(id, grouped))
     rest = [i for i in items if id(i) not in chosen]
-    out, taken = [], 0
-    for k in range(workers):
-        head = groups[k] if k < len(groups) else []
-        share = round((k + 1) * len(items) / workers) - len(out)       # this worker's share of items
-        fill = max(0, share - len(head)) if k < workers - 1 else len(rest) - taken
-        out += head + rest[taken:taken + fill]
-        taken += fill
-    items[:] = out
+    order = {name: k for k, name in enumerate(SOLUTION_MODULES)}
+    grouped.sort(key=lambda i: (i.callspec.id, order[i.path.name]))
+    items[:] = rest[:first] + grouped + rest[first:]
 
 
 @pytest.fixture(scope="session")
