@@ -102,3 +102,31 @@ def test_a_slider_stays_quick_while_a_heavy_job_runs_in_a_worker_and_cancel_or_c
 def test_in_worker_outside_a_job_runs_here():
     """The command line and the core's tests call the same code without a server."""
     assert in_worker(hold_the_lock, 0.0, progress=lambda f, m="": None) == os.getpid()
+
+
+def test_job_slots_are_handed_out_in_turn():
+    """A tab that asks again the moment its job ends does not keep another tab's job waiting: the
+    server's and the worker pool's slots go first come, first served (app.viewer.worker.FairSlots)."""
+    import threading
+    from app.viewer.worker import FairSlots
+    slots = FairSlots(1)
+    slots.acquire()
+    order, waiting = [], threading.Event()
+
+    def other_tab():
+        waiting.set()
+        slots.acquire()
+        order.append("other")
+        slots.release()
+
+    thread = threading.Thread(target=other_tab)
+    thread.start()
+    waiting.wait(5)
+    time.sleep(0.2)                         # the other tab now waits in the queue
+    for _ in range(3):                      # this tab: release and at once ask again, three times
+        slots.release()
+        slots.acquire()
+        order.append("greedy")
+    slots.release()
+    thread.join(5)
+    assert order[0] == "other", order

@@ -23,7 +23,7 @@ from app.core.robot import RobotModel, list_robot_names, load_robot, robot_path
 from app.viewer.guard import HandshakePolicy, guard_widget_updates, handshake_checked, widget_name
 from app.viewer.panel_api import PanelRegistry
 from app.viewer.session import Session
-from app.viewer.worker import WorkerPool
+from app.viewer.worker import FairSlots, WorkerPool
 
 DEFAULT_ROBOT = "planar_2r"
 
@@ -94,7 +94,7 @@ class LabServer:
         self.initial_robot = robot or (DEFAULT_ROBOT if DEFAULT_ROBOT in names else names[0])
         self.verbose = verbose
         self.max_jobs = max(1, os.cpu_count() or 1)
-        self._job_slots = threading.BoundedSemaphore(self.max_jobs)
+        self._job_slots = FairSlots(self.max_jobs)    # in turn: no tab's job waits behind another's for ever
         self.workers = WorkerPool(self.max_jobs)     # heavy jobs' processes (app/viewer/worker.py)
         self.checks = WorkerPool(1)                  # the pinocchio badges' cross-checks
         self.policy = HandshakePolicy(host)
@@ -191,8 +191,8 @@ class LabServer:
         >>> lab.stop()
         """
         def run(progress, *args, **kwargs):
-            while not self._job_slots.acquire(timeout=0.5):
-                progress(0.0, f"waiting: the server already runs {self.max_jobs} long computations")
+            self._job_slots.acquire(lambda: progress(0.0, f"waiting: the server already runs {self.max_jobs} "
+                                                          "long computations"))
             try:
                 return fn(progress, *args, **kwargs)
             finally:

@@ -23,6 +23,7 @@ wins the CPU; a worker whose memory grew past ``max_rss_mb`` is replaced after i
 """
 from __future__ import annotations
 
+import collections
 import os
 import pickle
 import subprocess
@@ -80,6 +81,50 @@ class job_context:
     def __exit__(self, *exc):
         _current.pool, _current.cancelled = self._saved
         return False
+
+
+class FairSlots:
+    """``n`` slots handed out first come, first served. (A semaphore polled with time-outs wakes
+    whoever asks first: a tab that starts one job the moment its last one ends could keep another
+    tab's job waiting for ever.)
+
+    >>> slots = FairSlots(1)
+    >>> slots.acquire(); slots.release()
+    """
+
+    def __init__(self, n: int):
+        self._free = n
+        self._queue: collections.deque = collections.deque()
+        self._cond = threading.Condition()
+
+    def acquire(self, waiting: Callable[[], None] = lambda: None, interval: float = 0.5) -> None:
+        """Wait for a slot in turn; ``waiting()`` runs every ``interval`` s meanwhile (outside the
+        lock; it may raise, e.g. JobCancelled, to give up the place in the queue)."""
+        me = object()
+        with self._cond:
+            self._queue.append(me)
+        try:
+            while True:
+                with self._cond:
+                    if self._queue[0] is me and self._free > 0:
+                        self._queue.popleft()
+                        self._free -= 1
+                        self._cond.notify_all()           # the next in the queue may take a slot too
+                        return
+                    if self._cond.wait(interval):
+                        continue
+                waiting()
+        except BaseException:
+            with self._cond:
+                if me in self._queue:
+                    self._queue.remove(me)
+                self._cond.notify_all()
+            raise
+
+    def release(self) -> None:
+        with self._cond:
+            self._free += 1
+            self._cond.notify_all()
 
 
 def in_worker(fn: Callable, *args, progress: Optional[Callable] = None, **kwargs):
@@ -260,7 +305,7 @@ class WorkerPool:
         self._idle: List[_Worker] = []
         self._busy: List[_Worker] = []
         self._closed = False
-        self._free = threading.BoundedSemaphore(self.size)   # at most ``size`` jobs at once
+        self._free = FairSlots(self.size)                     # at most ``size`` jobs at once, in turn
         self.started = 0            # worker processes started so far
         self.killed = 0             # killed by a Cancel or a closed tab
 
@@ -310,9 +355,10 @@ class WorkerPool:
         worker's reports here. Raises JobCancelled (and kills the worker) as soon as
         ``cancelled()`` is true or ``progress`` raises it."""
         progress = kwargs.get("progress")
-        while not self._free.acquire(timeout=0.1):       # every worker busy: wait for one
+        def waiting():                                    # every worker busy: wait for one, in turn
             if cancelled():
                 raise JobCancelled(getattr(fn, "__name__", "job"))
+        self._free.acquire(waiting, interval=0.1)
         try:
             worker = self._take()
         except BaseException:
