@@ -67,21 +67,27 @@ def engine_version() -> str:
     """Hash of everything a rendered output depends on besides its files (see the module's doc)."""
     global _engine
     if _engine is None:
-        h = hashlib.sha256(f"{sys.version_info[:2]}".encode())
         files = sorted((APP_DIR / "core").rglob("*.py")) + sorted((APP_DIR / "throws").rglob("*.yaml"))
         files += sorted((APP_DIR / "commands").glob("*.py"))
         for package, name in (("sympy", "release.py"), ("numpy", "version.py")):
             spec = importlib.util.find_spec(package)     # finds the package without importing it
             if spec is not None and spec.origin:
                 files.append(Path(spec.origin).parent / name)
-        for path in files:
-            h.update(str(path.relative_to(APP_DIR) if APP_DIR in path.parents else path.name).encode())
-            try:
-                h.update(path.read_bytes())
-            except OSError:
-                h.update(b"-")
-        _engine = h.hexdigest()[:16]
+        _engine = digest_of_files(files, f"{sys.version_info[:2]}")
     return _engine
+
+
+def digest_of_files(files, seed: str = "") -> str:
+    """16 hex digits of sha256 over ``seed`` and every file's name (relative to app/ when inside it)
+    and bytes ('-' for a file that cannot be read): a cache's version."""
+    h = hashlib.sha256(seed.encode())
+    for path in files:
+        h.update(str(path.relative_to(APP_DIR) if APP_DIR in path.parents else path.name).encode())
+        try:
+            h.update(path.read_bytes())
+        except OSError:
+            h.update(b"-")
+    return h.hexdigest()[:16]
 
 
 def file_hash(path) -> Optional[str]:

@@ -22,7 +22,6 @@ version.
 """
 from __future__ import annotations
 
-import hashlib
 import importlib.util
 import threading
 from pathlib import Path
@@ -41,17 +40,11 @@ def version() -> str:
     global _version
     if _version is None:
         app_dir = Path(__file__).resolve().parents[1]
-        h = hashlib.sha256(output_cache.engine_version().encode())
         files = [app_dir / "viewer" / "mathml.py", app_dir / "panels" / "model.py"]
         spec = importlib.util.find_spec("latex2mathml")
         if spec is not None and spec.origin:
             files += sorted(Path(spec.origin).parent.glob("*.py"))
-        for path in files:
-            try:
-                h.update(path.read_bytes())
-            except OSError:
-                h.update(b"-")
-        _version = h.hexdigest()[:16]
+        _version = output_cache.digest_of_files(files, output_cache.engine_version())
     return _version
 
 
