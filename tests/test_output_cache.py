@@ -7,16 +7,7 @@ import pickle
 import pytest
 
 from app.core import output_cache
-
-
-class _Payload:
-    """A pickle that would create a file when unpickled."""
-
-    def __init__(self, marker):
-        self.marker = marker
-
-    def __reduce__(self):
-        return (open, (str(self.marker), "w"))
+from test_model_cache import _Payload          # a pickle that would create a file when unpickled
 
 
 @pytest.fixture()

@@ -47,6 +47,13 @@ from .compile import numeric_function
 MAX_VALUE_SETS = 32
 
 
+def _compiled_term(tag: str, arguments: str, term: str) -> cached_property:
+    """A CompiledModel property: the derivation's ``term`` compiled over the model's ``arguments``
+    (``_qp``: q, p; ``_qdp``: q, q', p), once per model."""
+    return cached_property(lambda model: model.function(tag, lambda: (getattr(model, arguments),
+                                                                       getattr(model.dyn, term))))
+
+
 class CompiledModel:
     """Every compiled function of one robot content, compiled on first use (see the module doc).
 
@@ -121,21 +128,11 @@ class CompiledModel:
     def _qdp(self):
         return [self.robot.q, self.robot.dq, self.robot.parameter_symbols]
 
-    @cached_property
-    def fM(self):
-        return self.function("M", lambda: (self._qp, self.dyn.M))
-
-    @cached_property
-    def fC(self):
-        return self.function("C", lambda: (self._qdp, self.dyn.C))
-
-    @cached_property
-    def fg(self):
-        return self.function("g", lambda: (self._qp, self.dyn.g))
-
-    @cached_property
-    def fk(self):
-        return self.function("k", lambda: (self._qp, self.dyn.spring))
+    #: compiled M(q, p), C(q, q', p), g(q, p) and the springs k(q, p)
+    fM = _compiled_term("M", "_qp", "M")
+    fC = _compiled_term("C", "_qdp", "C")
+    fg = _compiled_term("g", "_qp", "g")
+    fk = _compiled_term("k", "_qp", "spring")
 
     @cached_property
     def ffr(self):

@@ -122,6 +122,13 @@ def wrap_angle(value):
 
 
 # ====================================================================== the view
+def _applied(term: str) -> cached_property:
+    """A TaskView property: the dynamic model's ``term`` with the task's values applied, computed once."""
+    prop = cached_property(lambda view: view.apply(getattr(view.dyn, term)))
+    prop.__doc__ = f"The model's {term} with the task's values applied."
+    return prop
+
+
 class TaskView:
     """One task's view of its exercise (see the module docstring)."""
 
@@ -157,26 +164,12 @@ class TaskView:
     def angles(self) -> list:
         return natural_angles(self.kin)
 
-    @cached_property
-    def M(self) -> sp.Matrix:
-        return self.apply(self.dyn.M)
-
-    @cached_property
-    def C(self) -> sp.Matrix:
-        return self.apply(self.dyn.C)
-
-    @cached_property
-    def c(self) -> sp.Matrix:
-        return self.apply(self.dyn.c)
-
-    @cached_property
-    def g(self) -> sp.Matrix:
-        return self.apply(self.dyn.g)
-
-    @cached_property
-    def k(self) -> sp.Matrix:
-        """Spring forces k(q)."""
-        return self.apply(self.dyn.spring)
+    #: the model's terms with the task's values applied: M(q), C(q, q'), c, g(q) and the springs k(q)
+    M = _applied("M")
+    C = _applied("C")
+    c = _applied("c")
+    g = _applied("g")
+    k = _applied("spring")
 
     @cached_property
     def n(self) -> sp.Matrix:
