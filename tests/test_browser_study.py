@@ -167,8 +167,11 @@ def test_presenter_mode_at_150_percent(lab, browser, tmp_path):
         label_off = page.evaluate(LABEL_PX)
         assert math_off < 18.0
         page.get_by_text("Display", exact=True).first.click()
-        page.get_by_text("Presenter mode", exact=True).click()
-        page.locator(".r2-presenter").wait_for(state="attached", timeout=5000)
+        # check() clicks and then verifies the box is ticked (a click lost while the panel's layout
+        # still moves would otherwise go unnoticed until the timeout below)
+        page.get_by_role("checkbox", name="Presenter mode").check()
+        shots.wait_until(lambda: session.presenter.on, 10, "the server to switch presenter mode on")
+        page.locator(".r2-presenter").wait_for(state="attached", timeout=10000)
         shots.wait_until(lambda: page.evaluate(MATH_PX)[0] >= PRESENTER_MATH_PX, 5, "the larger math")
         math_on, height_on = page.evaluate(MATH_PX)
         assert math_on >= PRESENTER_MATH_PX and math_on >= 1.5 * math_off and height_on >= 1.5 * height_off
@@ -191,7 +194,7 @@ def test_presenter_mode_at_150_percent(lab, browser, tmp_path):
         print(f"math {math_off:.2f} -> {math_on:.2f} CSS px, height {height_off:.1f} -> {height_on:.1f}, "
               f"labels {label_off:.2f} -> {page.evaluate(LABEL_PX):.2f}, panel {panel}")
         # off again: everything back
-        page.get_by_text("Presenter mode", exact=True).click()
+        page.get_by_role("checkbox", name="Presenter mode").uncheck()
         shots.wait_until(lambda: page.evaluate(MATH_PX)[0] == pytest.approx(math_off, abs=0.1), 5, "the normal math")
         assert session.scene.panel_fraction is None
         assert page.r2_errors == []
