@@ -9,7 +9,7 @@ import pytest
 from app.viewer import screenshot as shots
 
 
-def open_page(lab, browser, query, robot, width=shots.WIDTH, height=shots.HEIGHT, scale=None):
+def open_page(lab, browser, query, robot, width=None, height=None, scale=None):
     """A new tab on ``/?query`` (and its server-side session), ready."""
     before = set(lab.sessions)
     if scale is None:

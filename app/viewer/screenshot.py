@@ -21,9 +21,12 @@ WIDTH, HEIGHT = 1280, 720
 
 
 class Browser:
-    """A headless Chromium; every ``page()`` is a fresh browser context (an independent tab)."""
+    """A headless Chromium; every ``page()`` is a fresh browser context (an independent tab) of
+    ``size`` CSS pixels unless the call names another (the tests use a smaller window: software
+    WebGL draws every pixel on the CPU)."""
 
-    def __init__(self):
+    def __init__(self, size: tuple = (WIDTH, HEIGHT)):
+        self.size = tuple(size)
         from playwright.sync_api import sync_playwright
         if not Path(CHROMIUM).exists():
             raise RuntimeError(f"{CHROMIUM} not found: install Debian's chromium (make browser)")
@@ -32,8 +35,9 @@ class Browser:
         #: (id of the lab, width, height) -> (page, session): a tab ``capture`` keeps for the next picture
         self.kept_tabs: dict = {}
 
-    def page(self, url: str, width: int = WIDTH, height: int = HEIGHT):
-        context = self.browser.new_context(viewport={"width": width, "height": height}, device_scale_factor=1)
+    def page(self, url: str, width: Optional[int] = None, height: Optional[int] = None):
+        context = self.browser.new_context(viewport={"width": width or self.size[0], "height": height or self.size[1]},
+                                           device_scale_factor=1)
         page = context.new_page()
         page.goto(url)
         return page
@@ -275,8 +279,8 @@ def show_notifications(page) -> None:
                   HIDE_NOTIFICATIONS_CSS)
 
 
-def open_tab(lab, browser: "Browser", robot: str, tab: Optional[str] = None, width: int = WIDTH,
-             height: int = HEIGHT, hide: bool = True):
+def open_tab(lab, browser: "Browser", robot: str, tab: Optional[str] = None, width: Optional[int] = None,
+             height: Optional[int] = None, hide: bool = True):
     """A new browser tab on ``robot`` (with the tab ``tab`` open): (page, its server-side session)."""
     before = set(lab.sessions)
     lab.initial_robot = robot
