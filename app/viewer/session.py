@@ -58,6 +58,7 @@ class Session:
         self.params: Dict[str, float] = {}
         self.state: Dict[str, object] = {}      # panels' state kept across robot switches
         self.generation = 0
+        self._picks = 0                         # robots asked for so far (load_robot)
         self.closed = False
         self.ready = threading.Event()          # set when the robot's panels are built
         self.url: Dict[str, str] = {}           # the page's state as written to its address
@@ -353,7 +354,11 @@ class Session:
 
     # ================================================================== robot switching
     def load_robot(self, name: str) -> None:
-        """Replace the robot: scene, sliders and parameters at once, panels when the model is ready."""
+        """Replace the robot: scene, sliders and parameters at once, panels when the model is ready.
+        Of two picks made while the first is still being read and drawn, the later one wins."""
+        with self._lock:
+            self._picks += 1
+            pick = self._picks
         try:
             robot = self.lab.robot(name)
             drawing = RobotDrawing(robot)
@@ -364,6 +369,8 @@ class Session:
             self._internal_error(owner=f"drawing of {name}")
             return
         with self._lock:
+            if pick != self._picks:            # a later pick is loading: it alone may take the tab
+                return
             self._started.set()
             self.generation += 1
             generation = self.generation
