@@ -11,11 +11,19 @@ def add_arguments(p):
     p.add_argument("--robot", default=None, help="robot shown first (default planar_2r)")
 
 
+#: seconds a thread may hold the interpreter lock while another waits (Python's default: 0.005). The
+#: server's threads are many short callbacks and a few that build panels; at 1 ms a slider's round
+#: trip waits less behind them (benchmarks/load.py, loaded p95: 100-117 ms against 120-204 ms).
+SWITCH_INTERVAL = 0.001
+
+
 def run(args) -> int:
+    import sys
     import time
 
     from app.panels.exercises import shipped_exercises
 
+    sys.setswitchinterval(SWITCH_INTERVAL)
     lab = lab_server(host=args.host, port=args.port, robot=args.robot)
     lab.warm_up(shipped_exercises)       # the picker's and the Exercises tab's lists, the first robot
     print(f"Robotics II Lab: open {lab.url} in a browser (Ctrl+C stops)", flush=True)
