@@ -85,10 +85,15 @@ def test_links_stay_on_their_joints_after_robot_switches(shared_tab):
     # the elastic 2R's ghost (the control reference) sits on the robot too
     session.scene.ghost(session.q, "check")
     root = session.scene._ghosts["check"][1][""].name
-    shots.wait_until(lambda: page.evaluate(walk._FRAMES_JS, [f"{root}/link1"])[f"{root}/link1"] is not None, 5,
-                     "the ghost")
-    ghost = walk._matrix(page.evaluate(walk._FRAMES_JS, [f"{root}/link1"])[f"{root}/link1"])
-    assert np.allclose(ghost, session.drawing.poses(session.q)["link1"], atol=1e-9)
+    expected = session.drawing.poses(session.q)["link1"]
+
+    def ghost_pose():
+        pose = page.evaluate(walk._FRAMES_JS, [f"{root}/link1"])[f"{root}/link1"]
+        return None if pose is None else walk._matrix(pose)
+    # the node comes first, its pose with the next frame the browser draws
+    shots.wait_until(lambda: ghost_pose() is not None and np.allclose(ghost_pose(), expected, atol=1e-9), 5,
+                     "the ghost on the robot")
+    assert np.allclose(ghost_pose(), expected, atol=1e-9)
 
 
 def test_steps_next_and_previous_work_before_a_step_is_picked(shared_tab):
