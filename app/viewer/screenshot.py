@@ -20,28 +20,13 @@ HIDE_NOTIFICATIONS_CSS = ".mantine-Notifications-root{display:none !important}"
 WIDTH, HEIGHT = 1280, 720
 
 
-#: run in a page before its own scripts when a Browser caps the frame rate: animation-frame callbacks
-#: asked for within one frame run together, at most MAX_FPS times a second
-FRAME_CAP_JS = """(() => { const every = 1000 / MAX_FPS, frame = window.requestAnimationFrame.bind(window);
-  let queue = [], ids = 0, scheduled = false, last = -1e9;
-  const run = (t) => { last = performance.now(); const due = queue; queue = []; scheduled = false;
-    for (const [, callback] of due) { try { callback(t); } catch (e) { setTimeout(() => { throw e; }); } } };
-  window.requestAnimationFrame = (callback) => { const id = ++ids; queue.push([id, callback]);
-    if (!scheduled) { scheduled = true; const wait = last + every - performance.now();
-      if (wait <= 0) frame(run); else setTimeout(() => frame(run), wait); }
-    return id; };
-  window.cancelAnimationFrame = (id) => { queue = queue.filter(([i]) => i !== id); }; })()"""
-
-
 class Browser:
     """A headless Chromium; every ``page()`` is a fresh browser context (an independent tab) of
-    ``size`` CSS pixels unless the call names another. ``max_fps`` caps the pages' animation
-    frames (the tests: viser's page draws frames back to back for 250 ms after every change, and
-    software WebGL draws each on the CPU; at 20 frames a second 30 slider steps cost 4.5 s of CPU
-    instead of 15 s). Without it, pages draw as a user's browser does (pictures, benchmarks)."""
+    ``size`` CSS pixels unless the call names another (the tests use a smaller window: software
+    WebGL draws every pixel on the CPU)."""
 
-    def __init__(self, size: tuple = (WIDTH, HEIGHT), max_fps: Optional[float] = None):
-        self.size, self.max_fps = tuple(size), max_fps
+    def __init__(self, size: tuple = (WIDTH, HEIGHT)):
+        self.size = tuple(size)
         from playwright.sync_api import sync_playwright
         if not Path(CHROMIUM).exists():
             raise RuntimeError(f"{CHROMIUM} not found: install Debian's chromium (make browser)")
@@ -50,16 +35,10 @@ class Browser:
         #: (id of the lab, width, height) -> (page, session): a tab ``capture`` keeps for the next picture
         self.kept_tabs: dict = {}
 
-    def new_context(self, width: Optional[int] = None, height: Optional[int] = None, scale: float = 1.0):
-        """A fresh browser context (its own cookies, storage and tabs) of this browser's settings."""
-        context = self.browser.new_context(viewport={"width": width or self.size[0], "height": height or self.size[1]},
-                                           device_scale_factor=scale)
-        if self.max_fps:
-            context.add_init_script(FRAME_CAP_JS.replace("MAX_FPS", repr(float(self.max_fps))))
-        return context
-
     def page(self, url: str, width: Optional[int] = None, height: Optional[int] = None):
-        page = self.new_context(width, height).new_page()
+        context = self.browser.new_context(viewport={"width": width or self.size[0], "height": height or self.size[1]},
+                                           device_scale_factor=1)
+        page = context.new_page()
         page.goto(url)
         return page
 
