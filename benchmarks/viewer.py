@@ -140,6 +140,7 @@ def start_to_ready(browser, args, env, ready: bool = True, node_suffix: str = "/
         page = context.new_page()
         page.goto(url)
         frame = float("nan")                       # not drawn within 120 s
+        from playwright.sync_api import TimeoutError as NotDrawn
         try:
             page.wait_for_function("() => window.__r2FirstFrame !== undefined", timeout=120000)
             drawn = page.evaluate("() => window.__r2FirstFrame") / 1000.0 - t1_epoch
@@ -149,7 +150,7 @@ def start_to_ready(browser, args, env, ready: bool = True, node_suffix: str = "/
                     frame = drawn
                     break
                 page.wait_for_timeout(50)
-        except Exception:
+        except NotDrawn:
             pass
         out = {"up": up, "up cpu": up_cpu, "frame": frame}
         if ready:
