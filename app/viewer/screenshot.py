@@ -14,11 +14,8 @@ from pathlib import Path
 from typing import Callable, Optional
 
 CHROMIUM = os.environ.get("R2LAB_CHROMIUM", "/usr/bin/chromium")
-#: ``--use-angle=swiftshader`` names the software GL Chromium has anyway: with it Chromium composites
-#: the page in the GPU process too, instead of copying the WebGL canvas back into the page every frame
-#: (30 slider steps: 8 s of CPU instead of 13 s; benchmarks in docs/viewer.md)
-CHROMIUM_ARGS = ["--no-sandbox", "--enable-unsafe-swiftshader", "--use-angle=swiftshader",
-                 "--disable-background-networking", "--disable-component-update", "--disable-sync", "--no-first-run"]
+CHROMIUM_ARGS = ["--no-sandbox", "--enable-unsafe-swiftshader", "--disable-background-networking",
+                 "--disable-component-update", "--disable-sync", "--no-first-run"]
 HIDE_NOTIFICATIONS_CSS = ".mantine-Notifications-root{display:none !important}"
 WIDTH, HEIGHT = 1280, 720
 
