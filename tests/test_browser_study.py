@@ -167,9 +167,9 @@ def test_presenter_mode_at_150_percent(lab, browser, tmp_path):
         label_off = page.evaluate(LABEL_PX)
         assert math_off < 18.0
         page.get_by_text("Display", exact=True).first.click()
-        # check() clicks and then verifies the box is ticked (a click lost while the panel's layout
-        # still moves would otherwise go unnoticed until the timeout below)
-        page.get_by_role("checkbox", name="Presenter mode").check()
+        # the box is verified ticked after the click (a click lost while the panel's layout still
+        # moves is made again; it would otherwise go unnoticed until the timeout below)
+        shots.set_checkbox(page.get_by_role("checkbox", name="Presenter mode"))
         shots.wait_until(lambda: session.presenter.on, 10, "the server to switch presenter mode on")
         page.locator(".r2-presenter").wait_for(state="attached", timeout=10000)
         shots.wait_until(lambda: page.evaluate(MATH_PX)[0] >= PRESENTER_MATH_PX, 5, "the larger math")
@@ -194,7 +194,7 @@ def test_presenter_mode_at_150_percent(lab, browser, tmp_path):
         print(f"math {math_off:.2f} -> {math_on:.2f} CSS px, height {height_off:.1f} -> {height_on:.1f}, "
               f"labels {label_off:.2f} -> {page.evaluate(LABEL_PX):.2f}, panel {panel}")
         # off again: everything back
-        page.get_by_role("checkbox", name="Presenter mode").uncheck()
+        shots.set_checkbox(page.get_by_role("checkbox", name="Presenter mode"), False)
         shots.wait_until(lambda: page.evaluate(MATH_PX)[0] == pytest.approx(math_off, abs=0.1), 5, "the normal math")
         assert session.scene.panel_fraction is None
         assert page.r2_errors == []

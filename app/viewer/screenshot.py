@@ -97,6 +97,20 @@ def slider_thumb(page, label: str):
                         "/ancestor::div[contains(@class,'mantine-Flex-root')][1]//*[@role='slider']").first
 
 
+def set_checkbox(box, on: bool = True, attempts: int = 3) -> None:
+    """Tick (or clear) a checkbox as a user does, and click again if a click was lost: a click that
+    lands while the panel around the box still moves (a folder opening) may change nothing.
+    Example: ``set_checkbox(page.get_by_role("checkbox", name="Presenter mode"), on=False)``."""
+    from playwright.sync_api import Error
+    for attempt in range(attempts):
+        try:
+            box.set_checked(on, timeout=10000)
+            return
+        except Error as exc:
+            if "did not change its state" not in str(exc) or attempt == attempts - 1:
+                raise
+
+
 def image(page):
     """The page as an RGB numpy array (H x W x 3)."""
     import imageio.v3 as iio
