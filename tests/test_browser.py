@@ -165,6 +165,14 @@ def test_picking_another_robot_replaces_the_scene(shared_tab):
     choose(page, "Robot", "3R · Throwing arm (KUKA LWR 4+ joints 2, 3, 5; passive spring wrist)")   # ... a robot loads
     shots.wait_ready(page, "throwing_arm")
     assert [s.name for s in session.robot.bodies] == ["link1", "link2", "link3"]
+    # the math font came with the first robot, once, and the page's formulas use it
+    assert page.evaluate(MATH_FONT_STYLES) == 1
+    wait_until(lambda: page.evaluate("() => document.fonts.check(\"16px 'STIX Two Math'\")"), 10, "the math font")
+
+
+#: how many <style> elements of the page declare the math font
+MATH_FONT_STYLES = ("() => [...document.querySelectorAll('style')]"
+                    ".filter(e => e.textContent.includes(\"@font-face{font-family:'STIX Two Math'\")).length")
 
 
 def test_two_tabs_keep_independent_state(lab, browser, shared_tab):

@@ -66,6 +66,7 @@ class Session:
         self._url_serial = 0
         self._reselect_tab = False              # the tab group was rebuilt: select url["tab"] again
         self._started = threading.Event()       # the first robot was asked for
+        self._font_sent = False                 # the math font's <style> is in the page
         self._lock = threading.RLock()
         self._build_lock = threading.RLock()     # one thread builds or clears the panels at a time
         self._jobs = JobRunner(self.gui, self.notify, self._internal_error, lab.limited, lambda: self.closed,
@@ -204,7 +205,6 @@ class Session:
         gui = self.gui
         gui.configure_theme(control_width="large", show_logo=False, show_share_button=False,
                             brand_color=(46, 94, 170))
-        gui.add_html(mathml.font_style(), order=ORDER_STYLE)
         self.presenter = Presenter(self, order=ORDER_STYLE + 0.3, on_switch=lambda on: self._fire("presenter", on))
         self._catalog = self.lab.catalog()
         self.picker = RobotPicker(gui, self._catalog, ORDER_PICKER, lambda: self.robot_name, self.load_robot,
@@ -399,7 +399,10 @@ class Session:
                 for key in ("exercise", "step", "throw"):
                     self.url.pop(key, None)
             self.url["robot"] = name
+            send_font, self._font_sent = not self._font_sent, True
         self._write_url()
+        if send_font:      # 2 MB: after the first robot, so that it is drawn sooner; before any formula
+            self.gui.add_html(mathml.font_style(), order=ORDER_STYLE)
 
         def work(progress):
             if not is_derived(robot):       # a cold derivation runs in a worker process
