@@ -32,7 +32,8 @@ FONT_PATH = Path(__file__).resolve().parents[2] / "static" / "fonts" / "STIXTwoM
 def font_style() -> str:
     """A ``<style>`` element declaring the math font (as a data URL) and the formula CSS.
 
-    Added once per page (a session does it when a browser tab connects); every formula from
+    Added once per page (a session does it with the tab's first robot, after the robot's drawing:
+    2 MB that need not delay the first frame); every formula from
     :func:`math_html` then uses it."""
     data = base64.b64encode(FONT_PATH.read_bytes()).decode("ascii")
     return ("<style>"
