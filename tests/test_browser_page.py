@@ -18,13 +18,12 @@ from app.viewer.walk import header_violations, link_violations
 
 def open_page(lab, browser, query, robot):
     """A new tab on ``/?query`` (server side session too), ready and without notifications."""
-    before = set(lab.sessions)
     page = browser.page(shots.page_url(lab, query))
     errors = []
     page.on("pageerror", lambda exc: errors.append(str(exc)))
     page.r2_errors = errors
     shots.wait_ready(page, robot)
-    session = shots.new_session(lab, before)
+    session = shots.new_session(lab, page)
     return page, session
 
 
@@ -175,10 +174,9 @@ def test_reload_cancels_the_run_and_restores_the_page(lab, browser):
         panel.rate.value = 20000.0
         future = panel.run()
         shots.wait_until(lambda: page.get_by_text("Simulating").count() > 0, 10, "the run to start")
-        before = set(lab.sessions)
         page.reload()
         shots.wait_ready(page, "rp_2004_03_25")                  # the robot of the address
-        new = shots.new_session(lab, before)
+        new = shots.new_session(lab, page)
         shots.wait_until(future.done, 10, "the orphaned run to stop")
         result = future.result()                      # stopped early, far from its 120 s
         assert session.closed and (result is None or (not result.completed and result.t[-1] < 60.0))

@@ -11,7 +11,6 @@ from app.viewer import screenshot as shots
 
 def open_page(lab, browser, query, robot, width=None, height=None, scale=None):
     """A new tab on ``/?query`` (and its server-side session), ready."""
-    before = set(lab.sessions)
     if scale is None:
         page = browser.page(shots.page_url(lab, query), width, height)
     else:
@@ -22,7 +21,7 @@ def open_page(lab, browser, query, robot, width=None, height=None, scale=None):
     page.on("pageerror", lambda exc: errors.append(str(exc)))
     page.r2_errors = errors
     shots.wait_ready(page, robot)
-    session = shots.new_session(lab, before)
+    session = shots.new_session(lab, page)
     session.ready.wait(60)
     return page, session
 

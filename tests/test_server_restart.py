@@ -14,10 +14,9 @@ def test_tabs_come_back_as_they_were_after_a_restart(browser):
     try:
         for query, robot, tab in (("robot=rp_2004_03_25&tab=steps", "rp_2004_03_25", "Steps"),
                                   ("robot=polar_2r_2016_06_06&tab=control", "polar_2r_2016_06_06", "Control")):
-            before = set(first.sessions)
             page = browser.page(shots.page_url(first, query))
             shots.wait_ready(page, robot)
-            shots.new_session(first, before)
+            shots.new_session(first, page)
             shots.wait_until(lambda: shots.selected_tab(page) == tab, 10, f"the {tab} tab")
             pages.append((page, robot, tab))
     finally:

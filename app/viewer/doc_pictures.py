@@ -165,7 +165,6 @@ THROW_SHOTS = {
 def throw_picture(out: Path, name: str, fraction: float, what: str, lab, browser) -> Path:
     """The Throw studio showing the shipped throw ``name`` at ``fraction`` of its time."""
     from app.core.throw.config import load_throw_config
-    before = set(lab.sessions)
     lab.initial_robot = "throwing_arm"
     # the phase portrait alone at twice the pixel density, so that its lines are crisp
     context = browser.browser.new_context(viewport={"width": 1280, "height": 1000 if what == "page" else 720},
@@ -174,7 +173,7 @@ def throw_picture(out: Path, name: str, fraction: float, what: str, lab, browser
     page.goto(lab.url)
     try:
         wait_ready(page, "throwing_arm")
-        session = new_session(lab, before)
+        session = new_session(lab, page)
         hide_notifications(page)
         select_tab(page, "Throw studio")
         studio = session.state["throw"]["studio"]

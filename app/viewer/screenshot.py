@@ -257,13 +257,15 @@ def _barrier(page, session, timeout: float = 60.0) -> None:
         handle.remove()
 
 
-def new_session(lab, before, timeout: float = 30.0):
-    """The session of the tab that connected after the ids in ``before`` were taken."""
+def new_session(lab, page, timeout: float = 30.0):
+    """The server's session of the tab ``page`` shows (after it opened or reloaded): the page's
+    status marker names its tab, so a tab another test opens meanwhile is never taken for it."""
     deadline = time.time() + timeout
     while time.time() < deadline:
-        new = [s for cid, s in list(lab.sessions.items()) if cid not in before]
-        if new:
-            return new[-1]
+        tab = page.evaluate("() => document.querySelector('.r2-status')?.dataset.tab ?? null")
+        session = lab.sessions.get(int(tab)) if tab is not None else None
+        if session is not None and not session.closed:
+            return session
         time.sleep(0.05)
     raise RuntimeError("the page connected but no session appeared")
 
@@ -296,11 +298,10 @@ def show_notifications(page) -> None:
 def open_tab(lab, browser: "Browser", robot: str, tab: Optional[str] = None, width: Optional[int] = None,
              height: Optional[int] = None, hide: bool = True):
     """A new browser tab on ``robot`` (with the tab ``tab`` open): (page, its server-side session)."""
-    before = set(lab.sessions)
     lab.initial_robot = robot
     page = browser.page(page_url(lab, f"robot={robot}"), width, height)
     wait_ready(page, robot)
-    session = new_session(lab, before)
+    session = new_session(lab, page)
     if hide:
         hide_notifications(page)
     if tab:

@@ -214,7 +214,7 @@ class Session:
         self._info = gui.add_html("", order=ORDER_INFO)
         self._badge = gui.add_html(self._badge_html("pending", "pinocchio cross-check: waiting for the model"),
                                    order=ORDER_BADGE)
-        self._status = gui.add_html('<span class="r2-status" data-ready="0"></span>', order=ORDER_BADGE + 0.5)
+        self._status = gui.add_html(self._status_html(False), order=ORDER_BADGE + 0.5)
         self._coord_folder = gui.add_folder("Joint coordinates", order=ORDER_COORDS)
         self._param_folder = gui.add_folder("Parameters", order=ORDER_PARAMS, expand_by_default=False)
         display = gui.add_folder("Display", order=ORDER_DISPLAY, expand_by_default=False)
@@ -383,8 +383,7 @@ class Session:
             self.params = robot.parameter_values()
             self.q = default_q(robot)
             with self.client.atomic():
-                self._status.content = (f'<span class="r2-status" data-ready="0" data-robot="{name}" '
-                                        f'data-generation="{generation}"></span>')
+                self._status.content = self._status_html(False, name, generation)
                 self._info.content = self._info_html(robot)
                 self._badge.content = self._badge_html("pending", "pinocchio cross-check: waiting for the model")
                 self.scene.clear_overlays()
@@ -437,12 +436,18 @@ class Session:
         with self._lock:
             if generation != self.generation:
                 return
-            self._status.content = (f'<span class="r2-status" data-ready="1" data-robot="{self.robot_name}" '
-                                    f'data-generation="{generation}"></span>')
+            self._status.content = self._status_html(True, self.robot_name, generation)
             self.ready.set()
         self._check_job.request()
 
     # ================================================================== header widgets
+    def _status_html(self, ready: bool, robot: Optional[str] = None, generation: Optional[int] = None) -> str:
+        """The hidden marker tests and pictures wait on: which tab this is, its robot, whether ready;
+        e.g. ``<span class="r2-status" data-tab="3" data-ready="1" data-robot="planar_2r"
+        data-generation="2">``."""
+        extra = "" if robot is None else f' data-robot="{robot}" data-generation="{generation}"'
+        return f'<span class="r2-status" data-tab="{self.tab_id}" data-ready="{int(ready)}"{extra}></span>'
+
     def _info_html(self, robot) -> str:
         kind = "planar, " + robot.plane + " plane" if robot.plane else "spatial"
         joints = "".join("R" if b.joint.type == "revolute" else "P" if b.joint.type == "prismatic" else ""

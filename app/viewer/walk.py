@@ -247,10 +247,9 @@ class Walk:
 
     # -------------------------------------------------------------- tab
     def _open(self, url: str) -> None:
-        before = set(self.lab.sessions)
         self.page = self.browser.page(url)
         self.page.on("pageerror", lambda exc: self.page_errors.append(str(exc)))
-        self.session = shots.new_session(self.lab, before)
+        self.session = shots.new_session(self.lab, self.page)
         self._wait_ready(opening=True)
         shots.hide_notifications(self.page)
 
@@ -429,9 +428,8 @@ class Walk:
     def reload(self) -> None:
         old = self.session
         query = self.page.evaluate("() => location.search")
-        before = set(self.lab.sessions)
         self.page.reload()
-        self.session = shots.new_session(self.lab, before)
+        self.session = shots.new_session(self.lab, self.page)
         self._wait_ready(opening=True)
         shots.hide_notifications(self.page)
         shots.wait_until(lambda: old.closed, 10, "the old tab's session to close")
