@@ -234,7 +234,7 @@ def switching(browser, robots=SWITCH):
             try:
                 page = browser.page(lab.url + "?robot=planar_2r")
                 wait_ready(page, "planar_2r")
-                session = new_session(lab, set())
+                session = new_session(lab, page)
                 for name in robots:                   # warm the disk caches the page itself fills
                     _switch(page, session, name)
                 _forget_memory(lab)
@@ -266,7 +266,7 @@ def drag(browser, seconds=3.0):
     lab = _lab(robot="planar_2r")
     page = browser.page(lab.url)
     wait_ready(page, "planar_2r")
-    session = new_session(lab, set())
+    session = new_session(lab, page)
     counts = {"updates": 0, "poses": 0}
     original_moved, original_pose = session._slider_moved, SceneView.set_pose
 

@@ -29,9 +29,10 @@ def lab():
 @pytest.fixture(scope="session")
 def browser():
     from app.viewer import screenshot as shots
-    # a small laptop's window (960 x 540 CSS px) rather than the docs' 1280 x 720: software WebGL
-    # draws every pixel on the CPU, and the browser is half of the suite's CPU time
-    with shots.Browser(size=(960, 540)) as b:
+    # a small laptop's window (960 x 540 CSS px) rather than the docs' 1280 x 720, the 3D view at
+    # most 20 frames a second: software WebGL draws every pixel of every frame on the CPU, and the
+    # browser is half of the suite's CPU time
+    with shots.Browser(size=(960, 540), max_fps=20) as b:
         yield b
 
 

@@ -14,7 +14,7 @@ def open_page(lab, browser, query, robot, width=None, height=None, scale=None):
     if scale is None:
         page = browser.page(shots.page_url(lab, query), width, height)
     else:
-        context = browser.browser.new_context(viewport={"width": width, "height": height}, device_scale_factor=scale)
+        context = browser.new_context(width, height, scale)
         page = context.new_page()
         page.goto(shots.page_url(lab, query))
     errors = []

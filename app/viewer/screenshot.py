@@ -19,14 +19,42 @@ CHROMIUM_ARGS = ["--no-sandbox", "--enable-unsafe-swiftshader", "--disable-backg
 HIDE_NOTIFICATIONS_CSS = ".mantine-Notifications-root{display:none !important}"
 WIDTH, HEIGHT = 1280, 720
 
+#: run in a page before its own scripts when a ``Browser`` caps the 3D view's frame rate: the
+#: animation frames react-three-fiber asks for (its render loop, the only callback whose source
+#: names its ``frameloop``) come at most MAX_FPS times a second; every other callback runs at once
+FRAME_CAP_JS = """(() => {
+  const every = 1000 / MAX_FPS, native = window.requestAnimationFrame.bind(window),
+        cancelNative = window.cancelAnimationFrame.bind(window), isLoop = new WeakMap(), pending = new Map();
+  let ids = 1e9, last = -1e9;
+  const renderLoop = (callback) => {
+    if (!isLoop.has(callback)) isLoop.set(callback, String(callback).includes("frameloop"));
+    return isLoop.get(callback); };
+  window.requestAnimationFrame = (callback) => {
+    if (typeof callback !== "function" || !renderLoop(callback)) return native(callback);
+    const id = ++ids, entry = {}, wait = last + every - performance.now();
+    const ask = () => { entry.frame = native((t) => {
+      if (!pending.delete(id)) return;
+      last = performance.now(); callback(t); }); };
+    pending.set(id, entry);
+    if (wait <= 0) ask(); else entry.timer = setTimeout(ask, wait);
+    return id; };
+  window.cancelAnimationFrame = (id) => {
+    const entry = pending.get(id);
+    if (!entry) return cancelNative(id);
+    pending.delete(id); clearTimeout(entry.timer); if (entry.frame) cancelNative(entry.frame); };
+})()"""
+
 
 class Browser:
     """A headless Chromium; every ``page()`` is a fresh browser context (an independent tab) of
-    ``size`` CSS pixels unless the call names another (the tests use a smaller window: software
-    WebGL draws every pixel on the CPU)."""
+    ``size`` CSS pixels unless the call names another. ``max_fps`` caps the 3D view's frames a
+    second (the tests: viser's page draws frames back to back for a while after every change, and
+    software WebGL draws each on the CPU); without it pages draw as a user's browser does
+    (pictures, benchmarks). E.g. ``with Browser((960, 540), max_fps=20) as b: b.page(lab.url)``.
+    """
 
-    def __init__(self, size: tuple = (WIDTH, HEIGHT)):
-        self.size = tuple(size)
+    def __init__(self, size: tuple = (WIDTH, HEIGHT), max_fps: Optional[float] = None):
+        self.size, self.max_fps = tuple(size), max_fps
         from playwright.sync_api import sync_playwright
         if not Path(CHROMIUM).exists():
             raise RuntimeError(f"{CHROMIUM} not found: install Debian's chromium (make browser)")
@@ -35,10 +63,16 @@ class Browser:
         #: (id of the lab, width, height) -> (page, session): a tab ``capture`` keeps for the next picture
         self.kept_tabs: dict = {}
 
-    def page(self, url: str, width: Optional[int] = None, height: Optional[int] = None):
+    def new_context(self, width: Optional[int] = None, height: Optional[int] = None, scale: float = 1.0):
+        """A fresh browser context (its own storage and tabs) of this browser's size and frame cap."""
         context = self.browser.new_context(viewport={"width": width or self.size[0], "height": height or self.size[1]},
-                                           device_scale_factor=1)
-        page = context.new_page()
+                                           device_scale_factor=scale)
+        if self.max_fps:
+            context.add_init_script(FRAME_CAP_JS.replace("MAX_FPS", repr(float(self.max_fps))))
+        return context
+
+    def page(self, url: str, width: Optional[int] = None, height: Optional[int] = None):
+        page = self.new_context(width, height).new_page()
         page.goto(url)
         return page
 
