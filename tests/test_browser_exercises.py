@@ -174,7 +174,7 @@ def open_exercise(lab, browser, exercise_id, hide=True):
     shots.field(page, "Exercise").click()
     page.get_by_role("option", name=option_label(ex), exact=True).click()
     shots.wait_ready(page, ex.robot_ref)
-    panel = session.state["exercises"]["panel"]
+    panel = session.open_panel("exercises")["panel"]
     wait_until(lambda: panel.solution is not None, what="the solution")
     page.get_by_text("steps revealed").first.wait_for(timeout=30000)
     return page, session, panel, ex
@@ -289,7 +289,7 @@ def test_exam_sheet_button_offers_the_sheet_as_downloads(lab, browser):
     server, are left to tests/test_sheet.py); nothing chosen or an unknown id is refused."""
     page, session = shots.open_tab(lab, browser, "planar_2r", tab="Exercises", height=900, hide=False)
     try:
-        panel = session.state["exercises"]["panel"]
+        panel = session.open_panel("exercises")["panel"]
         page.get_by_text("Printable exam sheet").click()
         page.get_by_role("button", name="Exam sheet", exact=True).wait_for(state="visible")
         click(page, "Exam sheet")                                       # no exercise shown, none typed

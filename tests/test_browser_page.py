@@ -112,7 +112,7 @@ def test_switching_robot_after_a_run_leaves_no_stale_pose(shared_tab):
     """Defect 3: after a run drew the 2R bent, the next robot (at q = 0) was drawn with the 2R's
     link poses until a slider moved."""
     page, session = fresh(shared_tab, "planar_2r", "Control")
-    panel = session.state["control"]["panel"]
+    panel = session.open_panel("control")["panel"]
     panel.configure("pd_gravity", reference="setpoint by=1.2,-1.5", duration=1.0)
     panel.run(wait=True)
     panel.show_time(1.0)                          # the 2R drawn bent
@@ -147,10 +147,36 @@ def test_model_tab_never_shows_the_previous_robots_matrices(shared_tab, monkeypa
     assert page.locator('.r2-model[data-robot="rp_2004_03_25"]').count() == 1
 
 
+def built_panels(page) -> dict:
+    """Panel name -> generation of every panel built in the page (its end marker)."""
+    return page.evaluate("() => Object.fromEntries([...document.querySelectorAll('.r2-panel')]"
+                         ".map(e => [e.dataset.panel, Number(e.dataset.generation)]))")
+
+
+def test_a_switch_builds_the_tab_on_display_and_a_click_builds_another(shared_tab):
+    """A robot switch builds only the panel on display (and the Exercises panel, kept across robots);
+    the other tabs say they are opening and are built for the robot shown when first clicked."""
+    page, session = fresh(shared_tab, "planar_2r", "Steps")
+    pick(page, session, "rp_2004_03_25")
+    generation = session.generation
+    built = built_panels(page)
+    assert built.get("steps") == generation
+    assert {"model", "control", "robot"}.isdisjoint(built), built     # not built for the new robot
+    assert page.get_by_text("Opening the Model tab ...").count() == 1
+    shots.select_tab(page, "Model")                                   # waits for the Model panel
+    assert built_panels(page)["model"] == generation
+    assert page.locator('.r2-model[data-robot="rp_2004_03_25"]').count() == 1
+    assert page.get_by_text("Opening the Model tab ...").count() == 0
+    shots.select_tab(page, "Steps")                                   # built once: not again
+    page.wait_for_timeout(300)
+    assert built_panels(page) == {**built, "model": generation}
+    assert header_violations(page, session) == []
+
+
 def test_switching_controller_clears_the_previous_run(shared_tab):
     """Defect 5: the previous controller's plots and status stayed after switching controller."""
     page, session = fresh(shared_tab, "planar_2r", "Control")
-    panel = session.state["control"]["panel"]
+    panel = session.open_panel("control")["panel"]
     panel.configure("computed_torque", reference="quintic by=0.3 T=0.5", mismatch="m2=3", duration=0.5)
     panel.run(wait=True)
     page.get_by_text("completed").first.wait_for()
@@ -169,7 +195,7 @@ def test_reload_cancels_the_run_and_restores_the_page(lab, browser):
         page.get_by_role("tab", name="Control", exact=True).wait_for()
         page.wait_for_function("() => document.querySelector('[role=tab][aria-selected=true]')"
                                ".textContent.trim() === 'Control'", timeout=10000)
-        panel = session.state["control"]["panel"]
+        panel = session.open_panel("control")["panel"]
         panel.configure("pd_gravity", reference="sine amplitude=0.3 f=0.5", duration=120.0)
         panel.rate.value = 20000.0
         future = panel.run()
@@ -207,10 +233,10 @@ def test_elastic_2r_control_opens_on_a_controller_that_runs(shared_tab):
     """Defect 8: the elastic 2R's Control tab opened on computed torque (kept from the previous
     robot), which refused to run with a command-line hint."""
     page, session = fresh(shared_tab, "planar_2r", "Control")
-    session.state["control"]["panel"].configure("computed_torque")    # the rigid 2R's controller before the switch
-    assert session.state["control"]["panel"]._name() == "computed_torque"
+    session.open_panel("control")["panel"].configure("computed_torque")    # the rigid 2R's controller before the switch
+    assert session.open_panel("control")["panel"]._name() == "computed_torque"
     pick(page, session, "elastic_2r")
-    panel = session.state["control"]["panel"]
+    panel = session.open_panel("control")["panel"]
     assert panel._name().startswith("elastic")
     panel.duration.value = 0.3
     panel.run(wait=True)
@@ -237,7 +263,7 @@ def test_number_fields_take_the_value_when_typing_pauses(shared_tab):
     assert box.input_value() == "1e1"                # the last good text is back
     pick(page, session, "throwing_arm")
     shots.select_tab(page, "Throw studio")
-    studio = session.state["throw"]["studio"]
+    studio = session.open_panel("throw")["studio"]
     page.get_by_role("tab", name="Edit", exact=True).click()
     spring = shots.field(page, "Spring k [N m/rad]")
     walk.type_text(spring, "1e9")
@@ -297,7 +323,7 @@ def test_address_opens_that_page_and_follows_it(lab, browser, tmp_path):
         page.context.close()
     page, session = open_page(lab, browser, "robot=rp_2004_03_25&exercise=2004-03-25_1&step=2", "rp_2004_03_25")
     try:
-        panel = session.state["exercises"]["panel"]
+        panel = session.open_panel("exercises")["panel"]
         shots.wait_until(lambda: panel.exercise is not None and panel.index == 1, 60, "step 2 of 2004-03-25#1")
         page.wait_for_function("() => location.search.includes('step=2')", timeout=5000)
     finally:

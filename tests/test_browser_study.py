@@ -105,7 +105,7 @@ def test_check_my_answer_in_the_exercises_tab(lab, browser):
     page, session = open_page(lab, browser, "robot=rp_2004_03_25&exercise=2004-03-25_1&step=2&tab=exercises",
                               "rp_2004_03_25")
     try:
-        panel = session.state["exercises"]["panel"]
+        panel = session.open_panel("exercises")["panel"]
         shots.wait_until(lambda: panel.solution is not None and panel.index == 1, 60, "step 2 of 2004-03-25#1")
         box = panel.check_box
         k = panel.solution.answer_step("M")

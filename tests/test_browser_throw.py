@@ -23,7 +23,7 @@ def arm():
 def open_studio(lab, browser, hide=True):
     """A new tab on the throwing arm with the Throw studio open; returns (page, session, studio)."""
     page, session = shots.open_tab(lab, browser, "throwing_arm", tab="Throw studio", height=900, hide=hide)
-    return page, session, session.state["throw"]["studio"]
+    return page, session, session.open_panel("throw")["studio"]
 
 
 #: waits end as soon as their condition holds; the limit only matters on a slow or busy machine, where

@@ -43,7 +43,7 @@ def control_page(lab, browser):
 def test_run_replay_and_plots(control_page):
     page, session = control_page
     shots.reload_robot(page, session, "planar_2r")
-    panel = session.state["control"]["panel"]
+    panel = session.open_panel("control")["panel"]
     assert panel.controller.value == "Computed torque (feedback linearization)"
     assert page.locator("math").count() >= 1                       # the law, typeset
     session.set_q([0.1, 0.2])
@@ -77,7 +77,7 @@ def test_run_replay_and_plots(control_page):
 def test_bad_gain_is_a_message_and_the_page_keeps_working(control_page):
     page, session = control_page
     shots.reload_robot(page, session, "planar_2r")
-    panel = session.state["control"]["panel"]
+    panel = session.open_panel("control")["panel"]
     panel.configure("computed_torque")
     typed(page, "Gains", "Kq=3")
     wait_until(lambda: panel.gains.value == "Kq=3", what="the typed gain")
@@ -121,7 +121,7 @@ def run_in_page(page, panel, controller, runs_before):
 
 def fresh(control_page):
     page, session = control_page
-    panel = session.state["control"]["panel"]
+    panel = session.open_panel("control")["panel"]
     panel.clear_comparison()
     session.set_q([0.1, 0.2])
     return page, session, panel

@@ -71,7 +71,7 @@ def shoot(robot, out, panel=None, q=None, step=None, width=1280, height=720, lab
             count = len(session.dynamics.steps)
             if not 0 <= step < count:
                 raise UserError(f"--step: {session.robot_name} has {count} steps")
-            session.state["steps"]["show"](step)
+            session.open_panel("steps")["show"](step)
 
     own_lab = lab is None
     lab = lab or lab_server(port=0, robot=robot)

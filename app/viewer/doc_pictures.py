@@ -55,7 +55,7 @@ def control_picture(out, robot: str, settings: Dict, t_show: float, scroll: int,
 
     def setup(session):
         session.set_q(np.zeros(session.robot.n) if q is None else q)
-        panel = session.state["control"]["panel"]
+        panel = session.open_panel("control")["panel"]
         if compare_with is not None:        # a first run kept for comparison: the same fields but these
             panel.configure(**{**settings, **compare_with})
             panel.run(wait=True)
@@ -127,7 +127,7 @@ def exercise_picture(out, exercise_id: str, step_title: str, zoom: int = 0, lab=
 
     def setup(session):
         shown["session"] = session
-        panel = session.state["exercises"]["panel"]
+        panel = session.open_panel("exercises")["panel"]
         panel.open(ex.id)
         deadline = 120
         while panel.solution is None and deadline > 0:
@@ -176,7 +176,7 @@ def throw_picture(out: Path, name: str, fraction: float, what: str, lab, browser
         session = new_session(lab, page)
         hide_notifications(page)
         select_tab(page, "Throw studio")
-        studio = session.state["throw"]["studio"]
+        studio = session.open_panel("throw")["studio"]
         shown = studio.shown
         studio.load_config(load_throw_config(name), play=False)
         wait_until(lambda: studio.shown > shown, what="the Throw studio to show the throw")

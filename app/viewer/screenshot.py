@@ -102,9 +102,11 @@ def wait_ready(page, robot: Optional[str] = None, timeout: float = 120.0) -> Non
     page.evaluate("() => document.fonts.ready.then(() => true)")
 
 
-def select_tab(page, title: str) -> None:
-    """Click a panel's tab by its title."""
+def select_tab(page, title: str, timeout: float = 60.0) -> None:
+    """Click a panel's tab by its title and wait until its panel is built (a tab opened for the
+    first time since the robot was loaded is built then)."""
     page.get_by_role("tab", name=title, exact=True).first.click()
+    page.wait_for_selector(f'.r2-panel[data-title="{title}"]', state="attached", timeout=timeout * 1000)
 
 
 def selected_tab(page) -> str:

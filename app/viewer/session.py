@@ -80,6 +80,7 @@ class Session:
         self._tab_handles: Dict[str, object] = {}
         self._tab_boxes: Dict[str, object] = {}   # panel name -> the container in its tab (_empty_tab)
         self._tab_titles: List[str] = []
+        self._unbuilt: Dict[str, int] = {}        # panel name -> generation whose tab waits to be opened
         self._panel_errors: List[str] = []
         self._pose_job = Coalescer(self._apply_pose, 0.0, self._internal_error)
         self._q_job = Coalescer(lambda: self._fire("q", self.q.copy()), 0.05, self._internal_error)
@@ -262,6 +263,15 @@ class Session:
                     self.url["tab"] = name
                     self._url_pending.pop("tab", None)
                 self._write_url()
+                if name in self._unbuilt:        # first opened since the robot was loaded
+                    threading.Thread(target=self._guarded_open, args=(name,), daemon=True,
+                                     name=f"open-{name}-{self.tab_id}").start()
+
+    def _guarded_open(self, name: str) -> None:
+        try:
+            self.open_panel(name)
+        except Exception:
+            self._internal_error(owner=f"the {name} tab")
 
     def _start(self, search: str) -> None:
         """Load the first robot: the address's (``?robot=...&tab=...``) or the default one; an
@@ -326,11 +336,12 @@ class Session:
             if tab in self._tab_handles:
                 self.url["tab"] = tab
                 self._reselect_tab = True
+                self.open_panel(tab)
             else:
                 problems.append(f"tab={tab} (not a tab of {self.robot_name})")
         exercise = pending.get("exercise")
         if exercise is not None:
-            panel = (self.state.get("exercises") or {}).get("panel")
+            panel = self.open_panel("exercises").get("panel")
             try:
                 if panel is None:
                     raise UserError("no Exercises panel")
@@ -341,7 +352,7 @@ class Session:
                 problems.append(f"exercise={exercise} ({exc})")
         throw = pending.get("throw")
         if throw is not None:
-            studio = (self.state.get("throw") or {}).get("studio")
+            studio = self.open_panel("throw").get("studio")
             try:
                 if studio is None or throw not in getattr(studio, "shipped", ()):
                     raise UserError("not a throw of the Throw studio")
@@ -580,8 +591,9 @@ class Session:
 
     # ================================================================== panels
     def _build_panels(self, generation: int) -> None:
-        """Build the panels of the robot of ``generation``; stops early when the robot is switched
-        meanwhile, and then leaves the new robot's placeholders."""
+        """Build the panel on display for the robot of ``generation`` (the others when their tab is
+        first opened, ``open_panel``); stops early when the robot is switched meanwhile, and then
+        leaves the new robot's placeholders."""
         with self._build_lock:
             if generation == self.generation:
                 self._build_panels_locked(generation)
@@ -600,30 +612,64 @@ class Session:
             self._tab_handles = {s.name: self._tabs.add_tab(s.title) for s in specs}
             self._tab_boxes = {}
             self._tab_titles = titles
+            self._unbuilt = {}
             with self._lock:
                 self._reselect_tab = True
+        names = [s.name for s in specs]
+        with self._lock:
+            wanted = [self._url_pending.get("tab"), self.url.get("tab")]
+        on_display = next((name for name in wanted if name in names), names[0] if names else None)
         for spec in specs:
             if generation != self.generation:          # switched meanwhile
                 return
-            if not fresh and not spec.rebuild:
-                continue
-            self._drop_listeners(spec.name)
-            box = self._empty_tab(spec.name)
-            self._owner.name = spec.name
-            try:
-                with box:
-                    spec.build(self)
-            except UserError as exc:
-                with box:
-                    self.gui.add_markdown(f"**{spec.title}**: {exc}")
-            except Exception:
-                detail = traceback.format_exc(limit=4)
-                with box:
-                    self.gui.add_markdown(f"**{spec.title}** could not be built for this robot "
-                                          f"(internal error):\n\n```\n{detail[-1200:]}\n```")
-                self.notify(f"Panel {spec.title} failed", detail.strip().splitlines()[-1], error=True)
-            finally:
-                self._owner.name = None
+            if not spec.rebuild:            # kept across robots: built with a new tab group only (now,
+                if fresh:                   # so that its previous instance, still working, is replaced)
+                    self._build_panel(spec, generation)
+            elif spec.name == on_display:
+                self._build_panel(spec, generation)
+            else:
+                self._drop_listeners(spec.name)
+                with self._empty_tab(spec.name):
+                    self.gui.add_html(mathml.label_html(f"Opening the {spec.title} tab ..."))
+                self._unbuilt[spec.name] = generation
+
+    def _build_panel(self, spec: PanelSpec, generation: int) -> None:
+        """Build one panel into its emptied tab, ending with the marker ``select_tab`` waits for."""
+        self._drop_listeners(spec.name)
+        box = self._empty_tab(spec.name)
+        self._unbuilt.pop(spec.name, None)
+        self._owner.name = spec.name
+        try:
+            with box:
+                spec.build(self)
+        except UserError as exc:
+            with box:
+                self.gui.add_markdown(f"**{spec.title}**: {exc}")
+        except Exception:
+            detail = traceback.format_exc(limit=4)
+            with box:
+                self.gui.add_markdown(f"**{spec.title}** could not be built for this robot "
+                                      f"(internal error):\n\n```\n{detail[-1200:]}\n```")
+            self.notify(f"Panel {spec.title} failed", detail.strip().splitlines()[-1], error=True)
+        finally:
+            self._owner.name = None
+        with box:
+            self.gui.add_html(f'<span class="r2-panel" data-panel="{spec.name}" data-title="{html.escape(spec.title)}" '
+                              f'data-generation="{generation}"></span>')
+
+    def open_panel(self, name: str) -> dict:
+        """Build panel ``name`` now if its tab has not been opened since the robot was loaded (a
+        switch builds only the tab on display; a click on another tab builds that one), and return
+        its ``state`` entry. Tests and pictures call it before reaching into a panel.
+
+        E.g. ``session.open_panel("control")["panel"].run()``."""
+        with self._build_lock:
+            spec = next((s for s in self._panel_specs if s.name == name), None)
+            generation = self.generation
+            if (spec is not None and self._unbuilt.get(name) == generation and self.dynamics is not None
+                    and not self.closed):
+                self._build_panel(spec, generation)
+        return self.state.get(name, {})
 
     def _clear_panels(self, robot) -> None:
         """Right after a switch, the panels rebuilt per robot show that the new model is being

@@ -355,7 +355,7 @@ class Walk:
         if self.rng.random() < 0.5:
             self.switch_controller()
         self._wait_ready()
-        panel = self.session.state["control"]["panel"]
+        panel = self.session.open_panel("control")["panel"]
         panel.duration.value = 0.5            # (in the closed Simulation settings folder)
         self.page.get_by_role("button", name="Run", exact=True).click()
         shots.wait_until(lambda: panel.result is not None or not panel.run_button.disabled, 30, "the run to end")
@@ -364,7 +364,7 @@ class Walk:
         if "Control" not in self._tab_titles():
             return
         shots.select_tab(self.page, "Control")
-        panel = self.session.state["control"]["panel"]
+        panel = self.session.open_panel("control")["panel"]
         titles = [t for t in panel._titles if t != panel.controller.value]
         shots.field(self.page, "Controller").click()
         self.page.get_by_role("option", name=self.rng.choice(titles), exact=True).click()
@@ -373,7 +373,7 @@ class Walk:
 
     def reveal_steps(self) -> None:
         shots.select_tab(self.page, "Steps")
-        state = self.session.state.get("steps", {})
+        state = self.session.open_panel("steps")
         for _ in range(self.rng.randint(1, 3)):
             before = state.get("index")
             forward = self.rng.random() < 0.7
@@ -383,19 +383,19 @@ class Walk:
             shots.wait_until(lambda: state.get("index") == want, 5, f"step {want + 1}")
 
     def open_exercise(self) -> None:
-        panel = self.session.state.get("exercises", {}).get("panel")
+        panel = self.session.open_panel("exercises").get("panel")
         if panel is None:
             return
         exercise = self.rng.choice(EXERCISES)
         panel.open(exercise)
         shots.wait_until(lambda: self.session.ready.is_set() and
-                         self.session.state["exercises"]["panel"].solution is not None, 60, f"{exercise} to be solved")
-        panel = self.session.state["exercises"]["panel"]
+                         self.session.open_panel("exercises")["panel"].solution is not None, 60, f"{exercise} to be solved")
+        panel = self.session.open_panel("exercises")["panel"]
         if self.rng.random() < 0.5:
             panel.show(self.rng.randint(0, len(panel.solution.steps) - 1))
         else:                                   # a variant: one parameter changed, then solved
             self._wait_ready()
-            panel = self.session.state["exercises"]["panel"]    # rebuilt when the tabs changed
+            panel = self.session.open_panel("exercises")["panel"]    # rebuilt when the tabs changed
             names = [f.name for f, _ in panel._fields if f.name in self.session.robot.parameters]
             if names:
                 name = self.rng.choice(names)
@@ -419,7 +419,7 @@ class Walk:
             self._wait_ready()
         title = next(t for t in self._tab_titles() if "Throw" in t)
         shots.select_tab(self.page, title)
-        studio = self.session.state["throw"]["studio"]
+        studio = self.session.open_panel("throw")["studio"]
         answered = studio.answered
         self.page.get_by_role("button", name=self.rng.choice(["Throw 1", "Throw 2", "Throw 3"]), exact=True).click()
         # loading a throw sets the model's parameters of its file: the next action starts after that
