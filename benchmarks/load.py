@@ -189,8 +189,10 @@ class Client:
             if gone is not None and self.widgets.get(str(gone["props"].get("label"))) is gone:
                 del self.widgets[str(gone["props"]["label"])]
         elif kind == "GuiUpdateMessage" and m.get("uuid") in self.by_uuid:
-            self.by_uuid[m["uuid"]].setdefault("props", {}).update(
-                {k: v for k, v in m.get("updates", {}).items() if k != "value"})
+            updates = m.get("updates", {})
+            self.by_uuid[m["uuid"]].setdefault("props", {}).update({k: v for k, v in updates.items() if k != "value"})
+            if "data-r2-drawn" in str(updates.get("content", "")):     # as the page does once it has drawn
+                self.update(self.report, "drawn")                        # the robot: the panels wait for it
         elif kind in ("NotificationShowMessage", "NotificationUpdateMessage"):
             props = m.get("props", {})
             self.texts.append(f"{props.get('title', '')}: {props.get('body', '')}")

@@ -165,7 +165,9 @@ def test_picking_another_robot_replaces_the_scene(shared_tab):
     choose(page, "Robot", "3R · Throwing arm (KUKA LWR 4+ joints 2, 3, 5; passive spring wrist)")   # ... a robot loads
     shots.wait_ready(page, "throwing_arm")
     assert [s.name for s in session.robot.bodies] == ["link1", "link2", "link3"]
-    # the math font came with the first robot, once, and the page's formulas use it
+    # the math font came once, after the page had reported its first robot drawn (the first panels
+    # wait for that report, DRAWN_WAIT at most), and the page's formulas use it
+    assert session.drawn.is_set()
     assert page.evaluate(MATH_FONT_STYLES) == 1
     wait_until(lambda: page.evaluate("() => document.fonts.check(\"16px 'STIX Two Math'\")"), 10, "the math font")
 

@@ -103,6 +103,9 @@ def test_the_cancel_button_stops_a_job_and_says_so(lab):
         session = lab.sessions[wait_for(lambda: set(lab.sessions) - before).pop()]
         ws.send(msgspec.msgpack.encode({"type": "GuiUpdateMessage", "uuid": session._report._impl.uuid,
                                         "updates": {"value": "url ?robot=planar_2r"}}))
+        wait_for(lambda: session.robot_name == "planar_2r")    # and then, as the page does once it has
+        ws.send(msgspec.msgpack.encode({"type": "GuiUpdateMessage", "uuid": session._report._impl.uuid,
+                                        "updates": {"value": "drawn"}}))     # drawn the robot
         wait_for(lambda: session.ready.is_set())
         state = {"calls": 0, "cancelled": 0, "finished": False}
 

@@ -38,6 +38,7 @@ ORDER_STYLE, ORDER_PICKER, ORDER_INFO, ORDER_BADGE, ORDER_PROGRESS = 0, 1, 3, 4,
 ORDER_COORDS, ORDER_PARAMS, ORDER_DISPLAY, ORDER_TABS = 10, 11, 12, 100
 
 URL_WAIT = 20.0        # seconds to wait for the page to report its address before the default page
+DRAWN_WAIT = 1.5       # seconds the tab's first panels wait for the page to draw its first robot
 
 
 class Session:
@@ -67,6 +68,7 @@ class Session:
         self._reselect_tab = False              # the tab group was rebuilt: select url["tab"] again
         self._started = threading.Event()       # the first robot was asked for
         self._font_sent = False                 # the math font's <style> is in the page
+        self.drawn = threading.Event()          # the page reported it has drawn the tab's first robot
         self._lock = threading.RLock()
         self._build_lock = threading.RLock()     # one thread builds or clears the panels at a time
         self._jobs = JobRunner(self.gui, self.notify, self._internal_error, lab.limited, lambda: self.closed,
@@ -204,14 +206,16 @@ class Session:
     # ================================================================== page
     def _build_page(self) -> None:
         gui = self.gui
+        # first of all, the field through which the page reports its address: the first robot waits on it
+        self._report = gui.add_text(url_state.BRIDGE_LABEL, "", order=ORDER_STYLE + 0.1)
+        self._url_writer = gui.add_html(url_state.bridge_html(), order=ORDER_STYLE + 0.2)
+        self._probe = gui.add_html("", order=ORDER_STYLE + 0.25)
         gui.configure_theme(control_width="large", show_logo=False, show_share_button=False,
                             brand_color=(46, 94, 170))
         self.presenter = Presenter(self, order=ORDER_STYLE + 0.3, on_switch=lambda on: self._fire("presenter", on))
         self._catalog = self.lab.catalog()
         self.picker = RobotPicker(gui, self._catalog, ORDER_PICKER, lambda: self.robot_name, self.load_robot,
                                   self._lock)
-        self._report = gui.add_text(url_state.BRIDGE_LABEL, "", order=ORDER_STYLE + 0.1)
-        self._url_writer = gui.add_html("", order=ORDER_STYLE + 0.2)
         self._info = gui.add_html("", order=ORDER_INFO)
         self._badge = gui.add_html(self._badge_html("pending", "pinocchio cross-check: waiting for the model"),
                                    order=ORDER_BADGE)
@@ -239,7 +243,6 @@ class Session:
         self._report.on_update(self._page_reported)
         if self._report.value:
             self._page_report(self._report.value)
-        self._url_writer.content = url_state.bridge_html()
         # the first robot comes from the page's address, once the page reports it
         timer = threading.Timer(URL_WAIT, self._start, ("",))
         timer.daemon = True
@@ -256,6 +259,8 @@ class Session:
         kind, _, text = value.partition(" ")
         if kind == "url":
             self._start(text)
+        elif kind == "drawn":
+            self.drawn.set()
         elif kind == "tab":
             name = next((s.name for s in self._panel_specs if s.title == text), None)
             if name is not None:
@@ -409,10 +414,10 @@ class Session:
                 for key in ("exercise", "step", "throw"):
                     self.url.pop(key, None)
             self.url["robot"] = name
-            send_font, self._font_sent = not self._font_sent, True
+            probe = not self._font_sent and not self.drawn.is_set()
         self._write_url()
-        if send_font:      # 2 MB: after the first robot, so that it is drawn sooner; before any formula
-            self.gui.add_html(mathml.font_style(), order=ORDER_STYLE)
+        if probe:          # the page says when it has drawn the tab's first robot (_send_font waits)
+            self._probe.content = url_state.drawn_probe_html(generation)
 
         def work(progress):
             if not is_derived(robot):       # a cold derivation runs in a worker process
@@ -436,6 +441,7 @@ class Session:
                 return
             self.dynamics = dynamics
             self.numeric = NumericModel(self.robot, self.params, dynamics=dynamics)
+        self._send_font()
         self._build_panels(generation)
         with self._lock:
             if generation != self.generation:
@@ -450,6 +456,16 @@ class Session:
             self._status.content = self._status_html(True, self.robot_name, generation)
             self.ready.set()
         self._check_job.request()
+
+    def _send_font(self) -> None:
+        """Before the tab's first formula: the math font (2 MB) once, after the page has drawn its
+        first robot (or DRAWN_WAIT seconds): the first panels and the font's decoding would
+        otherwise hold the browser's first frame back (by about 0.25 s in software WebGL)."""
+        if self._font_sent:
+            return
+        self.drawn.wait(DRAWN_WAIT)
+        self._font_sent = True
+        self.gui.add_html(mathml.font_style(), order=ORDER_STYLE)
 
     # ================================================================== header widgets
     def _status_html(self, ready: bool, robot: Optional[str] = None, generation: Optional[int] = None) -> str:

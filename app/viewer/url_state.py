@@ -69,6 +69,14 @@ def bridge_html() -> str:
     return _handler(js)
 
 
+def drawn_probe_html(serial: int = 0) -> str:
+    """Reports ``drawn`` through the hidden field after the next animation frame: sent
+    right after a robot's drawing, it tells the server that the page has drawn it. ``serial``
+    makes every call's HTML new (so it runs again)."""
+    return f'<span data-r2-drawn="{serial}"></span>' + _handler("requestAnimationFrame(()=>setTimeout(()=>"
+                    "window.__r2report&&window.__r2report('drawn',20)))")
+
+
 def write_html(state: Mapping[str, Optional[str]], select_tab: Optional[str] = None, serial: int = 0) -> str:
     """Rewrites the address bar to ``state``; with ``select_tab`` also selects that panel tab (by
     title, as the keyboard does: Enter on the tab) once it is in the page. ``serial`` makes every call's HTML new (so it runs again)."""
