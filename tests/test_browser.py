@@ -25,7 +25,7 @@ def shared_tab(lab, browser):
     """One tab for the tests below that start from a freshly loaded robot: (page, session)."""
     page, session = shots.open_tab(lab, browser, "planar_2r", hide=False)
     yield page, session
-    page.context.close()
+    shots.close_tab(page)
 
 
 def fresh(shared_tab, robot, hide=True):
@@ -193,7 +193,7 @@ def test_two_tabs_keep_independent_state(lab, browser, shared_tab):
         assert page_b.get_by_text("Planar 2R arm (vertical plane)").count() >= 1
         assert shots.field(page_a, "q1").input_value() == "0"
     finally:
-        page_b.context.close()
+        shots.close_tab(page_b)
 
 
 @pytest.mark.parametrize("typed, message", [("-3", "must not be negative"), ("", "empty value"),

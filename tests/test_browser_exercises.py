@@ -236,7 +236,7 @@ def test_open_an_exercise_and_reveal_its_steps(lab, browser):
         wait_until(lambda: session.scene.highlighted["bodies"] == list(step_last.highlight.get("bodies", [])),
                    what="the last step lit again")
     finally:
-        page.context.close()
+        shots.close_tab(page)
 
 
 def typed(page, label, text):
@@ -280,7 +280,7 @@ def test_a_variant_is_solved_and_a_bad_value_is_refused(lab, browser):
         from app.core.latex import num
         assert f"<mn>{num(abs(expected[2]))}</mn>" in card.inner_html()
     finally:
-        page.context.close()
+        shots.close_tab(page)
 
 
 def test_exam_sheet_button_offers_the_sheet_as_downloads(lab, browser):
@@ -315,4 +315,4 @@ def test_exam_sheet_button_offers_the_sheet_as_downloads(lab, browser):
         assert "2022-07-08#3" in text and text.count("class='r2-sheet-exercise'") == 1
         assert not panel.sheet_button.disabled and panel.exercise is None
     finally:
-        page.context.close()
+        shots.close_tab(page)

@@ -32,7 +32,7 @@ def shared_tab(lab, browser):
     """One tab for the tests that start from a freshly loaded robot: (page, session)."""
     page, session = open_page(lab, browser, "robot=planar_2r", "planar_2r")
     yield page, session
-    page.context.close()
+    shots.close_tab(page)
 
 
 def fresh(shared_tab, robot, tab=None):
@@ -210,7 +210,7 @@ def test_reload_cancels_the_run_and_restores_the_page(lab, browser):
                                ".textContent.trim() === 'Control'", timeout=10000)
         assert new.robot_name == "rp_2004_03_25"
     finally:
-        page.context.close()
+        shots.close_tab(page)
 
 
 def test_pinocchio_badge_compares_relatively(shared_tab):
@@ -296,7 +296,7 @@ def test_picker_is_sorted_searchable_and_a_group_loads_nothing(lab, browser):
         assert session.robot_name == "planar_2r"
         pick(page, session, "rp_2020_06_05")
     finally:
-        page.context.close()
+        shots.close_tab(page)
 
 
 # ====================================================================== the page's address
@@ -314,20 +314,20 @@ def test_address_opens_that_page_and_follows_it(lab, browser, tmp_path):
         pick(page, session, "rp_2004_03_25")
         page.wait_for_function("() => location.search === '?robot=rp_2004_03_25&tab=model'", timeout=5000)
     finally:
-        page.context.close()
+        shots.close_tab(page)
     page, session = open_page(lab, browser, "robot=no_such_robot&tab=model", lab.initial_robot)
     try:
         page.get_by_text("was not understood").first.wait_for(timeout=5000)
         assert session.robot_name == lab.initial_robot
     finally:
-        page.context.close()
+        shots.close_tab(page)
     page, session = open_page(lab, browser, "robot=rp_2004_03_25&exercise=2004-03-25_1&step=2", "rp_2004_03_25")
     try:
         panel = session.open_panel("exercises")["panel"]
         shots.wait_until(lambda: panel.exercise is not None and panel.index == 1, 60, "step 2 of 2004-03-25#1")
         page.wait_for_function("() => location.search.includes('step=2')", timeout=5000)
     finally:
-        page.context.close()
+        shots.close_tab(page)
 
 
 def test_a_clicked_tab_stays_when_a_panel_writes_the_address(shared_tab):

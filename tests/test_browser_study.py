@@ -98,7 +98,7 @@ def test_check_my_answer_in_the_model_tab(lab, browser):
         assert "Recheck this step" in text
         assert page.r2_errors == []
     finally:
-        page.context.close()
+        shots.close_tab(page)
 
 
 def test_check_my_answer_in_the_exercises_tab(lab, browser):
@@ -126,7 +126,7 @@ def test_check_my_answer_in_the_exercises_tab(lab, browser):
         assert "cannot read" in text
         assert page.r2_errors == []
     finally:
-        page.context.close()
+        shots.close_tab(page)
 
 
 # ====================================================================== presenter mode
@@ -198,7 +198,7 @@ def test_presenter_mode_at_150_percent(lab, browser, tmp_path):
         assert session.scene.panel_fraction is None
         assert page.r2_errors == []
     finally:
-        page.context.close()
+        shots.close_tab(page)
 
 
 def test_presenter_mode_stays_on_through_a_robot_switch_in_its_own_tab_only(lab, browser):
@@ -224,7 +224,7 @@ def test_presenter_mode_stays_on_through_a_robot_switch_in_its_own_tab_only(lab,
             assert other.evaluate(MATH_PX)[0] == pytest.approx(math_off, abs=0.1)
             assert other.locator(".r2-presenter").count() == 0 and not other_session.presenter.on
         finally:
-            other.context.close()
+            shots.close_tab(other)
         assert page.r2_errors == []
     finally:
-        page.context.close()
+        shots.close_tab(page)

@@ -142,7 +142,7 @@ def test_throw_one_lands_at_its_marker_and_throw_three_is_refused(lab, browser, 
         badge(page, "infeasible", "torque of q1")
         assert studio.error is None and studio.view.spec == thesis_throw("throw2")
     finally:
-        page.context.close()
+        shots.close_tab(page)
 
 
 def test_breaking_edits_are_flagged_and_the_last_good_throw_stays(lab, browser, arm):
@@ -183,7 +183,7 @@ def test_breaking_edits_are_flagged_and_the_last_good_throw_stays(lab, browser, 
         badge(page, "infeasible")
         assert studio.error is None
     finally:
-        page.context.close()
+        shots.close_tab(page)
 
 
 def test_a_control_point_is_dragged_with_the_mouse(lab, browser):
@@ -222,7 +222,7 @@ def test_a_control_point_is_dragged_with_the_mouse(lab, browser):
                    what="the dragged throw to be solved")
         assert badge(page, "infeasible")       # b3 lowered: joint 1 too fast
     finally:
-        page.context.close()
+        shots.close_tab(page)
 
 
 def test_closed_loop_tab_runs_the_monte_carlo_and_shows_the_histogram(lab, browser):
@@ -260,7 +260,7 @@ def test_closed_loop_tab_runs_the_monte_carlo_and_shows_the_histogram(lab, brows
         catch = studio.closed_loop.catch
         assert catch.catcher == "full" and catch.miss < 1e-3 and studio.nodes.get("catch_arm") is not None   # simulated catcher
     finally:
-        page.context.close()
+        shots.close_tab(page)
 
 
 # ---------------------------------------------------------------------- what the studio draws (no browser)

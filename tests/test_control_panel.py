@@ -37,7 +37,7 @@ def control_page(lab, browser):
     field it uses): opening a page is most of a browser test's time."""
     page, session = open_control(lab, browser)
     yield page, session
-    page.context.close()
+    shots.close_tab(page)
 
 
 def test_run_replay_and_plots(control_page):

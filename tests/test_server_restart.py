@@ -33,5 +33,5 @@ def test_tabs_come_back_as_they_were_after_a_restart(browser):
         assert len(second.sessions) == len(pages)
     finally:
         for page, _, _ in pages:
-            page.context.close()
+            shots.close_tab(page)
         second.stop()

@@ -257,4 +257,4 @@ def test_the_page_opens_a_urdf_file(lab, browser, tmp_path):
         M = session.numeric.M(session.q)
         assert np.allclose(M, NumericModel(load_robot("planar_2r")).M(session.q), atol=1e-12)
     finally:
-        page.context.close()
+        shots.close_tab(page)

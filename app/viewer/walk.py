@@ -470,6 +470,6 @@ class Walk:
                     self.check()
             finally:
                 if self.page is not None:
-                    self.page.context.close()
+                    shots.close_tab(self.page)
         self.report.seconds = time.perf_counter() - start
         return self.report
