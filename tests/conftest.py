@@ -30,9 +30,9 @@ def lab():
 def browser():
     from app.viewer import screenshot as shots
     # a small laptop's window (960 x 540 CSS px) rather than the docs' 1280 x 720, the 3D view at
-    # most 20 frames a second, one profile for the tabs (the page's scripts compiled once): software
+    # most 10 frames a second, one profile for the tabs (the page's scripts compiled once): software
     # WebGL draws every pixel of every frame on the CPU, and the browser is half of the suite's CPU
-    with shots.Browser(size=(960, 540), max_fps=20, shared_cache=True) as b:
+    with shots.Browser(size=(960, 540), max_fps=10, shared_cache=True) as b:
         yield b
 
 
