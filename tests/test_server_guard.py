@@ -188,3 +188,23 @@ def test_at_most_one_long_job_per_core_runs_at_once(lab):
     for t in threads:
         t.join(10)
     assert state["done"] == lab.max_jobs + 2 and state["peak"] == lab.max_jobs
+
+
+def test_reports_sent_back_to_back_are_each_handled(lab):
+    """The page's reports share one hidden field: its address and, at once, its first robot drawn
+    (or a tab clicked). Each is handled, in order: the address's robot loads (not the default page
+    after URL_WAIT) and the drawn report is seen. (Read in a thread, the first value was lost when
+    the second overwrote the field before that thread ran.)"""
+    for attempt in range(5):
+        before = set(lab.sessions)
+        own = f"http://127.0.0.1:{lab.viser.get_port()}"
+        with connect(ws_url(lab), subprotocols=PROTOCOL, additional_headers={"Origin": own}, max_size=None) as ws:
+            say_hello(ws)
+            session = lab.sessions[wait_for(lambda: set(lab.sessions) - before).pop()]
+            for value in ("url ?robot=rp_2004_03_25&tab=steps", "drawn"):
+                ws.send(msgspec.msgpack.encode({"type": "GuiUpdateMessage", "uuid": session._report._impl.uuid,
+                                                "updates": {"value": value}}))
+            wait_for(lambda: session.drawn.is_set(), timeout=10)     # handled after the address, so:
+            assert session.robot_name == "rp_2004_03_25", f"attempt {attempt}: {session.robot_name!r}"
+            wait_for(lambda: session.ready.is_set(), timeout=60)
+            assert session.url.get("tab") == "steps"

@@ -13,7 +13,7 @@ import math
 import threading
 import time
 import traceback
-from concurrent.futures import Future
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from typing import Callable, Dict, List, Mapping, Optional
 
@@ -83,6 +83,7 @@ class Session:
         self._tab_boxes: Dict[str, object] = {}   # panel name -> the container in its tab (_empty_tab)
         self._tab_titles: List[str] = []
         self._unbuilt: Dict[str, int] = {}        # panel name -> generation whose tab waits to be opened
+        self._reports: Optional[ThreadPoolExecutor] = None     # handles the page's reports in order
         self._panel_errors: List[str] = []
         self._pose_job = Coalescer(self._apply_pose, 0.0, self._internal_error)
         self._q_job = Coalescer(lambda: self._fire("q", self.q.copy()), 0.05, self._internal_error)
@@ -249,11 +250,26 @@ class Session:
         timer.start()
 
     # ================================================================== the page's address
-    def _page_reported(self, event) -> None:
-        """The page reported its address (``url ?...``) or a click on a panel tab (``tab Title``)."""
+    async def _page_reported(self, event) -> None:
+        """The page reported its address (``url ?...``), a click on a panel tab (``tab Title``) or
+        that it has drawn its first robot (``drawn``). Read here, in viser's event loop, before
+        the next report can overwrite the field (a plain callback runs later, in a thread, and two
+        reports in a row were read as the second twice); handled in order on the reports' thread."""
         if event.client is None:
             return
-        self._page_report(self._report.value)
+        value = self._report.value
+        with self._lock:
+            if self.closed:
+                return
+            if self._reports is None:
+                self._reports = ThreadPoolExecutor(max_workers=1, thread_name_prefix=f"reports{self.tab_id}")
+            self._reports.submit(self._guarded_report, value)
+
+    def _guarded_report(self, value: str) -> None:
+        try:
+            self._page_report(value)
+        except Exception:
+            self._internal_error(owner="the page's report")
 
     def _page_report(self, value: str) -> None:
         kind, _, text = value.partition(" ")
@@ -756,4 +772,6 @@ class Session:
             self.closed = True
             for field in self._param_fields.values():
                 field.close()
+            if self._reports is not None:
+                self._reports.shutdown(wait=False)
         self._jobs.shutdown()
