@@ -243,7 +243,7 @@ class Session:
         # came before (a fast client: the field exists in the page since add_text) is read here
         self._report.on_update(self._page_reported)
         if self._report.value:
-            self._page_report(self._report.value)
+            self._queue_report(self._report.value)
         # the first robot comes from the page's address, once the page reports it
         timer = threading.Timer(URL_WAIT, self._start, ("",))
         timer.daemon = True
@@ -257,24 +257,29 @@ class Session:
         reports in a row were read as the second twice); handled in order on the reports' thread."""
         if event.client is None:
             return
-        value = self._report.value
+        self._queue_report(self._report.value)
+
+    def _queue_report(self, value: str) -> None:
         with self._lock:
             if self.closed:
                 return
+            # the address's robot counts as picked when the address arrived: a robot the student
+            # picks afterwards (handled in another thread, maybe first) is the later pick and wins
+            pick = self._take_pick() if value.startswith("url ") and not self._started.is_set() else None
             if self._reports is None:
                 self._reports = ThreadPoolExecutor(max_workers=1, thread_name_prefix=f"reports{self.tab_id}")
-            self._reports.submit(self._guarded_report, value)
+            self._reports.submit(self._guarded_report, value, pick)
 
-    def _guarded_report(self, value: str) -> None:
+    def _guarded_report(self, value: str, pick: Optional[int]) -> None:
         try:
-            self._page_report(value)
+            self._page_report(value, pick)
         except Exception:
             self._internal_error(owner="the page's report")
 
-    def _page_report(self, value: str) -> None:
+    def _page_report(self, value: str, pick: Optional[int] = None) -> None:
         kind, _, text = value.partition(" ")
         if kind == "url":
-            self._start(text)
+            self._start(text, pick)
         elif kind == "drawn":
             self.drawn.set()
         elif kind == "tab":
@@ -294,9 +299,9 @@ class Session:
         except Exception:
             self._internal_error(owner=f"the {name} tab")
 
-    def _start(self, search: str) -> None:
+    def _start(self, search: str, pick: Optional[int] = None) -> None:
         """Load the first robot: the address's (``?robot=...&tab=...``) or the default one; an
-        unknown value gets a notice and the default page."""
+        unknown value gets a notice and the default page. ``pick``: taken when the address came."""
         with self._lock:
             if self._started.is_set() or self.closed:
                 return
@@ -316,7 +321,7 @@ class Session:
         if problems:
             self.notify("The page's address was not understood", "; ".join(problems) + ": showing the default page.",
                         error=True)
-        self.load_robot(robot or default)
+        self._load(robot or default, pick)
 
     def _reveal_when_solved(self, panel, exercise: str, k: int, timeout: float = 120.0) -> None:
         """Reveal steps 1..k+1 of the exercise the address opened, once it is solved."""
@@ -388,9 +393,16 @@ class Session:
     def load_robot(self, name: str) -> None:
         """Replace the robot: scene, sliders and parameters at once, panels when the model is ready.
         Of two picks made while the first is still being read and drawn, the later one wins."""
+        self._load(name)
+
+    def _take_pick(self) -> int:
         with self._lock:
             self._picks += 1
-            pick = self._picks
+            return self._picks
+
+    def _load(self, name: str, pick: Optional[int] = None) -> None:
+        if pick is None:
+            pick = self._take_pick()
         try:
             robot = self.lab.robot(name)
             drawing = RobotDrawing(robot)
