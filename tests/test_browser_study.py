@@ -11,12 +11,7 @@ from app.viewer import screenshot as shots
 
 def open_page(lab, browser, query, robot, width=None, height=None, scale=None):
     """A new tab on ``/?query`` (and its server-side session), ready."""
-    if scale is None:
-        page = browser.page(shots.page_url(lab, query), width, height)
-    else:
-        context = browser.new_context(width, height, scale)
-        page = context.new_page()
-        page.goto(shots.page_url(lab, query))
+    page = browser.page(shots.page_url(lab, query), width, height, scale or 1.0)
     errors = []
     page.on("pageerror", lambda exc: errors.append(str(exc)))
     page.r2_errors = errors

@@ -11,12 +11,11 @@ itself is clicked over the websocket, as a browser does.
 import threading
 import time
 
-import msgspec
 import pytest
 from websockets.sync.client import connect
 
 from app.viewer import JobCancelled
-from test_server_guard import PROTOCOL, say_hello, wait_for, ws_url
+from test_server_guard import PROTOCOL, say_hello, send_update, wait_for, ws_url
 
 # most CPU time a computation may spend between two progress calls (measured: at most 0.15 s of
 # wall time for derivations and simulations, 0.5 s for the optimizer and the verification, on the
@@ -101,11 +100,9 @@ def test_the_cancel_button_stops_a_job_and_says_so(lab):
                  additional_headers={"Origin": own}, max_size=None) as ws:
         say_hello(ws)
         session = lab.sessions[wait_for(lambda: set(lab.sessions) - before).pop()]
-        ws.send(msgspec.msgpack.encode({"type": "GuiUpdateMessage", "uuid": session._report._impl.uuid,
-                                        "updates": {"value": "url ?robot=planar_2r"}}))
+        send_update(ws, session._report, {"value": "url ?robot=planar_2r"})
         wait_for(lambda: session.robot_name == "planar_2r")    # and then, as the page does once it has
-        ws.send(msgspec.msgpack.encode({"type": "GuiUpdateMessage", "uuid": session._report._impl.uuid,
-                                        "updates": {"value": "drawn"}}))     # drawn the robot
+        send_update(ws, session._report, {"value": "drawn"})     # drawn the robot
         wait_for(lambda: session.ready.is_set())
         state = {"calls": 0, "cancelled": 0, "finished": False}
 
@@ -125,8 +122,7 @@ def test_the_cancel_button_stops_a_job_and_says_so(lab):
 
         future = session.run_in_background(job, "A long job", on_cancel=cancelled)
         button = wait_for(buttons, timeout=30)[0]       # shown with the progress bar after 0.3 s
-        ws.send(msgspec.msgpack.encode({"type": "GuiUpdateMessage", "uuid": button._impl.uuid,
-                                        "updates": {"value": True}}))
+        send_update(ws, button, {"value": True})
         clicked = time.monotonic()
         assert future.result(timeout=30) is None
         assert time.monotonic() - clicked < 5.0

@@ -28,6 +28,11 @@ def ws_url(lab, path=""):
     return f"ws://127.0.0.1:{lab.viser.get_port()}{path}"
 
 
+def send_update(ws, handle, updates: dict) -> None:
+    """What the page sends when a widget changes (``{"value": ...}``), from a raw client."""
+    ws.send(msgspec.msgpack.encode({"type": "GuiUpdateMessage", "uuid": handle._impl.uuid, "updates": updates}))
+
+
 def wait_for(condition, timeout=90.0):
     end = time.monotonic() + timeout
     while time.monotonic() < end:
@@ -111,16 +116,11 @@ def test_out_of_range_widget_values_are_refused_with_a_message(lab):
         say_hello(ws)
         session = lab.sessions[wait_for(lambda: set(lab.sessions) - before).pop()]
         # what the page's script does next: report its address (else the default page comes after URL_WAIT)
-        ws.send(msgspec.msgpack.encode({"type": "GuiUpdateMessage", "uuid": session._report._impl.uuid,
-                                        "updates": {"value": "url ?robot=planar_2r"}}))
+        send_update(ws, session._report, {"value": "url ?robot=planar_2r"})
         wait_for(lambda: session._sliders and session.robot_name == "planar_2r")
         q1 = session._sliders[0]
         low, high = q1.min, q1.max
         robot = _handle(session, "Robot")
-
-        def send(handle, updates):
-            ws.send(msgspec.msgpack.encode({"type": "GuiUpdateMessage", "uuid": handle._impl.uuid,
-                                            "updates": updates}))
 
         received = []
 
@@ -139,15 +139,15 @@ def test_out_of_range_widget_values_are_refused_with_a_message(lab):
         for bad in ({"value": 1e9}, {"value": high + 1.0}, {"value": float("nan")}, {"value": "1"},
                     {"value": 0.1, "max": 1e9}):
             received.clear()
-            send(q1, bad)
+            send_update(ws, q1, bad)
             wait_for(page_says("Value refused"), timeout=10)
             assert q1.value == pytest.approx(session.q[0]) and low <= q1.value <= high, bad
-        send(robot, {"value": "../../etc/passwd"})
+        send_update(ws, robot, {"value": "../../etc/passwd"})
         wait_for(page_says("is not one of the options"), timeout=10)
         assert session.robot_name == "planar_2r"
         # a value within the range goes through to the session
         target = 0.5 * (low + high) + 0.123
-        send(q1, {"value": target})
+        send_update(ws, q1, {"value": target})
         wait_for(lambda: abs(session.q[0] - target) < 1e-9, timeout=10)
         # server item 1: the power tower that froze the server is refused at once; a slider moved
         # right after it is applied (the issue measured 21 s for this round trip)
@@ -155,8 +155,8 @@ def test_out_of_range_widget_values_are_refused_with_a_message(lab):
                   if str(h._impl.props.label).startswith("m1"))
         mass = session.params["m1"]
         received.clear()
-        send(m1, {"value": "((((9**64)**64)**64)**64)"})
-        send(q1, {"value": target - 0.2})
+        send_update(ws, m1, {"value": "((((9**64)**64)**64)**64)"})
+        send_update(ws, q1, {"value": target - 0.2})
         wait_for(lambda: abs(session.q[0] - (target - 0.2)) < 1e-9, timeout=10)
         wait_for(page_says("Parameter not changed"), timeout=10)
         assert session.params["m1"] == mass        # exact: the stored value, untouched
@@ -202,8 +202,7 @@ def test_reports_sent_back_to_back_are_each_handled(lab):
             say_hello(ws)
             session = lab.sessions[wait_for(lambda: set(lab.sessions) - before).pop()]
             for value in ("url ?robot=rp_2004_03_25&tab=steps", "drawn"):
-                ws.send(msgspec.msgpack.encode({"type": "GuiUpdateMessage", "uuid": session._report._impl.uuid,
-                                                "updates": {"value": value}}))
+                send_update(ws, session._report, {"value": value})
             wait_for(lambda: session.drawn.is_set(), timeout=10)     # handled after the address, so:
             assert session.robot_name == "rp_2004_03_25", f"attempt {attempt}: {session.robot_name!r}"
             wait_for(lambda: session.ready.is_set(), timeout=60)

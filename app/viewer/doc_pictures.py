@@ -12,7 +12,7 @@ from typing import Dict, List, Optional
 
 import numpy as np
 
-from app.viewer.screenshot import (Browser, capture, hide_notifications, new_session, project, select_tab,
+from app.viewer.screenshot import (Browser, capture, close_tab, hide_notifications, new_session, project, select_tab,
                                    settle, wait_ready, wait_until)
 
 DOCS_DIR = Path(__file__).resolve().parents[2] / "docs" / "screenshots"
@@ -167,10 +167,7 @@ def throw_picture(out: Path, name: str, fraction: float, what: str, lab, browser
     from app.core.throw.config import load_throw_config
     lab.initial_robot = "throwing_arm"
     # the phase portrait alone at twice the pixel density, so that its lines are crisp
-    context = browser.browser.new_context(viewport={"width": 1280, "height": 1000 if what == "page" else 720},
-                                          device_scale_factor=1 if what == "page" else 2)
-    page = context.new_page()
-    page.goto(lab.url)
+    page = browser.page(lab.url, 1280, 1000 if what == "page" else 720, 1 if what == "page" else 2)
     try:
         wait_ready(page, "throwing_arm")
         session = new_session(lab, page)
@@ -197,7 +194,7 @@ def throw_picture(out: Path, name: str, fraction: float, what: str, lab, browser
             page.screenshot(path=str(out), clip={"x": left, "y": top, "width": right - left,
                                                  "height": plot["y"] + plot["height"] - top + 8})
     finally:
-        page.context.close()
+        close_tab(page)
     return out
 
 

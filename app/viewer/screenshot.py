@@ -96,8 +96,9 @@ class Browser:
         self._cap(context)
         return context
 
-    def page(self, url: str, width: Optional[int] = None, height: Optional[int] = None):
-        page = self.new_context(width, height).new_page()
+    def page(self, url: str, width: Optional[int] = None, height: Optional[int] = None, scale: float = 1.0):
+        """A new tab on ``url`` (``scale``: device pixels per CSS pixel); close it with ``close_tab``."""
+        page = self.new_context(width, height, scale).new_page()
         page.goto(url)
         return page
 

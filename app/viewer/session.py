@@ -268,13 +268,14 @@ class Session:
             pick = self._take_pick() if value.startswith("url ") and not self._started.is_set() else None
             if self._reports is None:
                 self._reports = ThreadPoolExecutor(max_workers=1, thread_name_prefix=f"reports{self.tab_id}")
-            self._reports.submit(self._guarded_report, value, pick)
+            self._reports.submit(self._guarded, "the page's report", self._page_report, value, pick)
 
-    def _guarded_report(self, value: str, pick: Optional[int]) -> None:
+    def _guarded(self, owner: str, fn: Callable, *args) -> None:
+        """``fn(*args)`` in a thread of its own making: an exception is reported, not lost."""
         try:
-            self._page_report(value, pick)
+            fn(*args)
         except Exception:
-            self._internal_error(owner="the page's report")
+            self._internal_error(owner=owner)
 
     def _page_report(self, value: str, pick: Optional[int] = None) -> None:
         kind, _, text = value.partition(" ")
@@ -289,15 +290,11 @@ class Session:
                     self.url["tab"] = name
                     self._url_pending.pop("tab", None)
                 self._write_url()
-                if name in self._unbuilt:        # first opened since the robot was loaded
-                    threading.Thread(target=self._guarded_open, args=(name,), daemon=True,
-                                     name=f"open-{name}-{self.tab_id}").start()
-
-    def _guarded_open(self, name: str) -> None:
-        try:
-            self.open_panel(name)
-        except Exception:
-            self._internal_error(owner=f"the {name} tab")
+                if name in self._unbuilt:        # first opened since the robot was loaded: built in a
+                    # thread of its own, so that a "drawn" report queued behind this one is not held
+                    # up while the first panels (holding the build lock) wait for it
+                    threading.Thread(target=self._guarded, args=(f"the {name} tab", self.open_panel, name),
+                                     daemon=True, name=f"open-{name}-{self.tab_id}").start()
 
     def _start(self, search: str, pick: Optional[int] = None) -> None:
         """Load the first robot: the address's (``?robot=...&tab=...``) or the default one; an
