@@ -24,12 +24,24 @@ from .trig import TrigPoly
 
 
 def as_sympy(value, definitions: Optional[Mapping[str, Any]] = None):
-    """Expected values (strings, numbers, nested lists) -> sympy objects with real symbols."""
-    defs = {}
+    """Expected values (strings, numbers, nested lists) -> sympy objects with real symbols; a
+    definition may use the ones before it.
+
+    >>> as_sympy(["2*b", 1], {"a": "m*l", "b": "a + 1"})
+    Matrix([
+    [2*l*m + 2],
+    [        1]])
+    """
+    defs: dict = {}
     for name, text in (definitions or {}).items():
-        defs[name] = as_sympy(text, {k: v for k, v in defs.items()})
+        defs[name] = _converted(text, dict(defs))
+    return _converted(value, defs)
+
+
+def _converted(value, defs: Mapping[str, Any]):
+    """``as_sympy`` with the definitions already converted (each parsed once, however deep the list)."""
     if isinstance(value, (list, tuple)):
-        items = [as_sympy(v, definitions) for v in value]
+        items = [_converted(v, defs) for v in value]
         if items and all(isinstance(i, sp.MatrixBase) for i in items):
             return sp.Matrix([list(i) for i in items])
         return sp.Matrix(items)
