@@ -36,6 +36,41 @@ def browser():
         yield b
 
 
+@pytest.fixture(scope="module")
+def module_tab(lab, browser):
+    """``module_tab(robot, tab=None, height=None, hide=True)``: (page, session) of a tab the module's
+    tests share, with ``robot`` loaded anew at every call (default q and parameters, the panels built
+    per robot rebuilt, the panel tab ``tab`` on display), notifications closed and then hidden or
+    shown, no page error left from the test before (``page.r2_errors``): a new tab's start without
+    its cost (2-4 s of CPU in software WebGL). One tab per window height."""
+    from app.viewer import screenshot as shots
+    tabs = {}
+
+    def fresh(robot, tab=None, height=None, hide=True):
+        page, session = tabs.get(height, (None, None))
+        if page is None or page.is_closed() or session.closed:
+            page, session = shots.open_tab(lab, browser, robot, tab, height=height, hide=False)
+            page.r2_errors = []
+            page.on("pageerror", lambda exc, errors=page.r2_errors: errors.append(str(exc)))
+            tabs[height] = (page, session)
+        else:
+            page.keyboard.press("Escape")                 # a dropdown the test before left open
+            shots.show_notifications(page)
+            page.evaluate("() => document.querySelectorAll('.mantine-Notification-root button').forEach(b => b.click())")
+            shots.wait_until(lambda: not page.locator(".mantine-Notification-root").count(), 10,
+                             "the earlier notifications to close")
+            shots.reload_robot(page, session, robot)
+            if tab:
+                shots.select_tab(page, tab)
+        (shots.hide_notifications if hide else shots.show_notifications)(page)
+        page.r2_errors.clear()
+        return page, session
+
+    yield fresh
+    for page, _session in tabs.values():
+        shots.close_tab(page)
+
+
 @pytest.fixture(autouse=True)
 def _seeded_randomness(request, monkeypatch):
     """Record the seed of every random generator made during the test; refuse one without a seed."""
