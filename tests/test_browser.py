@@ -1,8 +1,8 @@
 """The real page in headless Chromium (Debian's /usr/bin/chromium through Playwright).
 
 One lab server and one browser serve the whole run (tests/conftest.py). The tests of one robot's page share a
-tab (``shared_tab``) and load their robot anew in it, as a user picking it again would (a new tab costs about
-4 s of CPU in software WebGL); the tests of the picker and of two tabs open their own."""
+tab (``module_tab``) and load their robot anew in it, as a user picking it again would (a new tab costs about
+4 s of CPU in software WebGL); the test of two tabs opens its own second tab."""
 import colorsys
 import time
 
@@ -20,22 +20,9 @@ def open_tab(lab, browser, robot="planar_2r", hide=True):
     return page, session
 
 
-@pytest.fixture(scope="module")
-def shared_tab(lab, browser):
-    """One tab for the tests below that start from a freshly loaded robot: (page, session)."""
-    page, session = shots.open_tab(lab, browser, "planar_2r", hide=False)
-    yield page, session
-    shots.close_tab(page)
-
-
-def fresh(shared_tab, robot, hide=True):
-    """The shared tab with ``robot`` loaded anew (default q and parameters, panels rebuilt), its
-    notifications hidden or shown."""
-    page, session = shared_tab
-    if shots.field(page, "Group").input_value() != "All robots":     # the whole list, as on a new tab
-        choose(page, "Group", "All robots")
-    shots.reload_robot(page, session, robot)
-    (shots.hide_notifications if hide else shots.show_notifications)(page)
+def fresh(module_tab, robot, hide=True):
+    """The module's tab with ``robot`` loaded anew, settled."""
+    page, session = module_tab(robot, hide=hide)
     shots.settle(page, 0.8)
     return page, session
 
@@ -99,8 +86,8 @@ def assert_robot_drawn(page, session):
 
 
 @pytest.mark.parametrize("robot", ["planar_2r", "rp_2004_03_25", "polar_2r_2016_06_06", "throwing_arm"])
-def test_robot_drawn_and_follows_slider(shared_tab, robot):
-    page, session = fresh(shared_tab, robot)
+def test_robot_drawn_and_follows_slider(module_tab, robot):
+    page, session = fresh(module_tab, robot)
     before = assert_robot_drawn(page, session)
     q_before = session.q.copy()
     thumb = shots.slider_thumb(page, session.robot.coordinates[0])
@@ -116,8 +103,8 @@ def test_robot_drawn_and_follows_slider(shared_tab, robot):
     assert changed > 0.002, f"picture barely changed ({changed:.4f})"
 
 
-def test_model_panel_shows_typeset_math_and_values(shared_tab):
-    page, session = fresh(shared_tab, "planar_2r")
+def test_model_panel_shows_typeset_math_and_values(module_tab):
+    page, session = fresh(module_tab, "planar_2r")
     shots.select_tab(page, "Model")
     page.wait_for_selector(".r2-math math", state="visible")
     boxes = page.evaluate("""() => [...document.querySelectorAll('.r2-math math')]
@@ -148,8 +135,8 @@ def choose(page, label, option):
     page.get_by_role("option", name=option, exact=True).click()
 
 
-def test_picking_another_robot_replaces_the_scene(shared_tab):
-    page, session = fresh(shared_tab, "planar_2r")
+def test_picking_another_robot_replaces_the_scene(module_tab):
+    page, session = fresh(module_tab, "planar_2r")
     nodes = shots.scene_node_names(page)
     assert any(n.endswith("/link2__joint/joint") for n in nodes) and not any("sleeve" in n for n in nodes)
     choose(page, "Robot", "RP · Planar RP, prismatic axis across link 1 (exam 2004-03-25)")
@@ -177,8 +164,8 @@ MATH_FONT_STYLES = ("() => [...document.querySelectorAll('style')]"
                     ".filter(e => e.textContent.includes(\"@font-face{font-family:'STIX Two Math'\")).length")
 
 
-def test_two_tabs_keep_independent_state(lab, browser, shared_tab):
-    page_a, session_a = fresh(shared_tab, "planar_2r")
+def test_two_tabs_keep_independent_state(lab, browser, module_tab):
+    page_a, session_a = fresh(module_tab, "planar_2r")
     page_b, session_b = open_tab(lab, browser, "planar_2r")
     try:
         assert session_a is not session_b
@@ -198,8 +185,8 @@ def test_two_tabs_keep_independent_state(lab, browser, shared_tab):
 
 @pytest.mark.parametrize("typed, message", [("-3", "must not be negative"), ("", "empty value"),
                                              ("heavy", "is not a number")])
-def test_bad_parameter_is_refused_with_a_message(shared_tab, typed, message):
-    page, session = fresh(shared_tab, "planar_2r", hide=False)
+def test_bad_parameter_is_refused_with_a_message(module_tab, typed, message):
+    page, session = fresh(module_tab, "planar_2r", hide=False)
     box = shots.field(page, "m1 [kg]")
     if not box.is_visible():                          # the folder is closed: open it
         page.get_by_text("Parameters", exact=True).click()

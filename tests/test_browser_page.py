@@ -3,7 +3,7 @@ picker, the page's address, and a seeded walk that checks the page after every a
 
 Each of the ten defects of issue 11 has its test here (named after it); all share the suite's
 server and Chromium (tests/conftest.py). The tests that start from a robot picked in the page share
-one tab (``shared_tab``) and load their robot anew in it (a new tab costs about 4 s of CPU in
+one tab (``module_tab``, tests/conftest.py) and load their robot anew in it (a new tab costs about 4 s of CPU in
 software WebGL); the tests of the page's address, of a reload, of the picker's list and the walk
 open their own tabs."""
 import time
@@ -24,28 +24,6 @@ def open_page(lab, browser, query, robot):
     page.r2_errors = errors
     shots.wait_ready(page, robot)
     session = shots.new_session(lab, page)
-    return page, session
-
-
-@pytest.fixture(scope="module")
-def shared_tab(lab, browser):
-    """One tab for the tests that start from a freshly loaded robot: (page, session)."""
-    page, session = open_page(lab, browser, "robot=planar_2r", "planar_2r")
-    yield page, session
-    shots.close_tab(page)
-
-
-def fresh(shared_tab, robot, tab=None):
-    """The shared tab with ``robot`` loaded anew (default q and parameters, panels rebuilt), the
-    panel tab ``tab`` on display, no notification and no page error left from the test before."""
-    page, session = shared_tab
-    page.evaluate("() => document.querySelectorAll('.mantine-Notification-root button').forEach(b => b.click())")
-    shots.wait_until(lambda: not notifications(page), 10, "the earlier notifications to close")
-    shots.reload_robot(page, session, robot)
-    session.ready.wait(60)
-    if tab:
-        shots.select_tab(page, tab)
-    page.r2_errors.clear()
     return page, session
 
 
@@ -74,9 +52,9 @@ def notifications(page):
 
 
 # ====================================================================== the ten defects
-def test_links_stay_on_their_joints_after_robot_switches(shared_tab):
+def test_links_stay_on_their_joints_after_robot_switches(module_tab):
     """Defect 1: a robot drawn after another kept the previous robot's node poses in the browser."""
-    page, session = fresh(shared_tab, "cartesian_pp_payload")
+    page, session = module_tab("cartesian_pp_payload", hide=False)
     assert_drawn_right(page, session)
     for name in ("rp_2004_03_25", "throwing_arm", "catching_arm", "elastic_2r"):
         pick(page, session, name)
@@ -95,9 +73,9 @@ def test_links_stay_on_their_joints_after_robot_switches(shared_tab):
     assert np.allclose(ghost_pose(), expected, atol=1e-9)
 
 
-def test_steps_next_and_previous_work_before_a_step_is_picked(shared_tab):
+def test_steps_next_and_previous_work_before_a_step_is_picked(module_tab):
     """Defect 2: Next and Previous raised KeyError 'index' until a step was picked."""
-    page, session = fresh(shared_tab, "planar_2r", "Steps")
+    page, session = module_tab("planar_2r", "Steps", hide=False)
     with walk.ServerLog() as log:
         page.get_by_role("button", name="Next ▶").first.click()
         page.locator('.r2-step[data-step="1"]').wait_for(state="attached", timeout=5000)
@@ -108,10 +86,10 @@ def test_steps_next_and_previous_work_before_a_step_is_picked(shared_tab):
     assert log.errors() == []
 
 
-def test_switching_robot_after_a_run_leaves_no_stale_pose(shared_tab):
+def test_switching_robot_after_a_run_leaves_no_stale_pose(module_tab):
     """Defect 3: after a run drew the 2R bent, the next robot (at q = 0) was drawn with the 2R's
     link poses until a slider moved."""
-    page, session = fresh(shared_tab, "planar_2r", "Control")
+    page, session = module_tab("planar_2r", "Control", hide=False)
     panel = session.open_panel("control")["panel"]
     panel.configure("pd_gravity", reference="setpoint by=1.2,-1.5", duration=1.0)
     panel.run(wait=True)
@@ -125,7 +103,7 @@ def test_switching_robot_after_a_run_leaves_no_stale_pose(shared_tab):
     assert_drawn_right(page, session)
 
 
-def test_model_tab_never_shows_the_previous_robots_matrices(shared_tab, monkeypatch):
+def test_model_tab_never_shows_the_previous_robots_matrices(module_tab, monkeypatch):
     """Defect 4: while a new robot's model was derived, the Model tab kept the previous M(q)."""
     import app.viewer.session as session_module
     real = session_module.derive
@@ -134,7 +112,7 @@ def test_model_tab_never_shows_the_previous_robots_matrices(shared_tab, monkeypa
         time.sleep(6.0)                               # a cold derivation, as for a new spatial robot
         return real(robot, progress=progress)
 
-    page, session = fresh(shared_tab, "planar_2r", "Model")
+    page, session = module_tab("planar_2r", "Model", hide=False)
     page.locator('.r2-model[data-robot="planar_2r"]').wait_for(state="attached")
     monkeypatch.setattr(session_module, "derive", slow)
     session.load_robot("rp_2004_03_25")
@@ -153,10 +131,10 @@ def built_panels(page) -> dict:
                          ".map(e => [e.dataset.panel, Number(e.dataset.generation)]))")
 
 
-def test_a_switch_builds_the_tab_on_display_and_a_click_builds_another(shared_tab):
+def test_a_switch_builds_the_tab_on_display_and_a_click_builds_another(module_tab):
     """A robot switch builds only the panel on display (and the Exercises panel, kept across robots);
     the other tabs say they are opening and are built for the robot shown when first clicked."""
-    page, session = fresh(shared_tab, "planar_2r", "Steps")
+    page, session = module_tab("planar_2r", "Steps", hide=False)
     pick(page, session, "rp_2004_03_25")
     generation = session.generation
     built = built_panels(page)
@@ -173,9 +151,9 @@ def test_a_switch_builds_the_tab_on_display_and_a_click_builds_another(shared_ta
     assert header_violations(page, session) == []
 
 
-def test_switching_controller_clears_the_previous_run(shared_tab):
+def test_switching_controller_clears_the_previous_run(module_tab):
     """Defect 5: the previous controller's plots and status stayed after switching controller."""
-    page, session = fresh(shared_tab, "planar_2r", "Control")
+    page, session = module_tab("planar_2r", "Control", hide=False)
     panel = session.open_panel("control")["panel"]
     panel.configure("computed_torque", reference="quintic by=0.3 T=0.5", mismatch="m2=3", duration=0.5)
     panel.run(wait=True)
@@ -213,9 +191,9 @@ def test_reload_cancels_the_run_and_restores_the_page(lab, browser):
         shots.close_tab(page)
 
 
-def test_pinocchio_badge_compares_relatively(shared_tab):
+def test_pinocchio_badge_compares_relatively(module_tab):
     """Defect 7: at m1 = 1e9 the badge said "disagrees" for a round-off of 4.5e-7 (absolute)."""
-    page, session = fresh(shared_tab, "planar_2r")
+    page, session = module_tab("planar_2r", hide=False)
     page.locator('.r2-badge[data-state="ok"]').wait_for(state="attached", timeout=60000)
     walk.type_text(walk.parameter_box(page, session, "m1"), "1e9")
     shots.wait_until(lambda: session.params["m1"] == pytest.approx(1e9, rel=1e-12), 5, "m1 = 1e9")
@@ -229,10 +207,10 @@ def test_pinocchio_badge_compares_relatively(shared_tab):
     assert page.locator('.r2-badge[data-state="ok"]').count() == 1, page.locator(".r2-badge").inner_text()
 
 
-def test_elastic_2r_control_opens_on_a_controller_that_runs(shared_tab):
+def test_elastic_2r_control_opens_on_a_controller_that_runs(module_tab):
     """Defect 8: the elastic 2R's Control tab opened on computed torque (kept from the previous
     robot), which refused to run with a command-line hint."""
-    page, session = fresh(shared_tab, "planar_2r", "Control")
+    page, session = module_tab("planar_2r", "Control", hide=False)
     session.open_panel("control")["panel"].configure("computed_torque")    # the rigid 2R's controller before the switch
     assert session.open_panel("control")["panel"]._name() == "computed_torque"
     pick(page, session, "elastic_2r")
@@ -244,10 +222,10 @@ def test_elastic_2r_control_opens_on_a_controller_that_runs(shared_tab):
     assert "--passive" not in page.inner_text("body")
 
 
-def test_number_fields_take_the_value_when_typing_pauses(shared_tab):
+def test_number_fields_take_the_value_when_typing_pauses(module_tab):
     """Defect 9: '1e9' typed into the throw studio's spring became 19, with a notification per
     key; negative lengths were accepted in Parameters and exercise variants."""
-    page, session = fresh(shared_tab, "planar_2r")
+    page, session = module_tab("planar_2r", hide=False)
     seen = []
     session.on_parameters_change(lambda values: seen.append(values["l1"]))
     box = walk.parameter_box(page, session, "l1")
@@ -330,10 +308,10 @@ def test_address_opens_that_page_and_follows_it(lab, browser, tmp_path):
         shots.close_tab(page)
 
 
-def test_a_clicked_tab_stays_when_a_panel_writes_the_address(shared_tab):
+def test_a_clicked_tab_stays_when_a_panel_writes_the_address(module_tab):
     """Found by the walk: a tab clicked by the student jumped back to the previous one when a
     panel wrote the address (a step revealed) before the page had told the server of the click."""
-    page, session = fresh(shared_tab, "planar_2r", "Model")
+    page, session = module_tab("planar_2r", "Model", hide=False)
     for title in ("Steps", "Control", "Robot"):
         shots.select_tab(page, title)
         session.remember(step=None)              # at once: the click's report is still on its way
