@@ -428,7 +428,7 @@ def rest_acceleration_task(ctx, spec):
     if spec.get("point") is not None:
         body, label, p, J = _point_data(a)
         pdd = a.tidy_cancelled_matrix(J * ddq)
-        norm2 = sp.factor(sp.cancel(sp.together(sp.expand(sp.simplify((pdd.T * pdd)[0])))))
+        norm2 = a.tidy_cancelled((pdd.T * pdd)[0])
         a.ctx.step(f"Acceleration of {label}", rf"\ddot p_0 = J(q)\,\ddot q_0 = {a.L(pdd)}",
                    r"The term $\dot J(q)\, \dot q$ vanishes at rest.", bodies=[body] if body else [])
         a.ctx.step("Its squared norm", rf"\|\ddot p_0\|^2 = {a.L(norm2)}", "")
