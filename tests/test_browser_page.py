@@ -6,6 +6,7 @@ server and Chromium (tests/conftest.py). The tests that start from a robot picke
 one tab (``module_tab``, tests/conftest.py) and load their robot anew in it (a new tab costs about 4 s of CPU in
 software WebGL); the tests of the page's address, of a reload, of the picker's list and the walk
 open their own tabs."""
+import threading
 import time
 
 import numpy as np
@@ -107,19 +108,23 @@ def test_model_tab_never_shows_the_previous_robots_matrices(module_tab, monkeypa
     """Defect 4: while a new robot's model was derived, the Model tab kept the previous M(q)."""
     import app.viewer.session as session_module
     real = session_module.derive
+    derived = threading.Event()
 
     def slow(robot, progress=None):
-        time.sleep(6.0)                               # a cold derivation, as for a new spatial robot
+        derived.wait(60)                              # a derivation that lasts until the checks are done
         return real(robot, progress=progress)
 
     page, session = module_tab("planar_2r", "Model", hide=False)
     page.locator('.r2-model[data-robot="planar_2r"]').wait_for(state="attached")
     monkeypatch.setattr(session_module, "derive", slow)
-    session.load_robot("rp_2004_03_25")
-    page.locator('.r2-status[data-robot="rp_2004_03_25"]').wait_for(state="attached")
-    page.get_by_text("Deriving the model of").first.wait_for()
-    assert session.dynamics is None                      # still deriving, and meanwhile ...
-    assert page.locator('.r2-model[data-robot="planar_2r"]').count() == 0   # no 2R matrices under the RP
+    try:
+        session.load_robot("rp_2004_03_25")
+        page.locator('.r2-status[data-robot="rp_2004_03_25"]').wait_for(state="attached")
+        page.get_by_text("Deriving the model of").first.wait_for()
+        assert session.dynamics is None                      # still deriving, and meanwhile ...
+        assert page.locator('.r2-model[data-robot="planar_2r"]').count() == 0   # no 2R matrices under the RP
+    finally:
+        derived.set()
     shots.wait_ready(page, "rp_2004_03_25")
     assert header_violations(page, session) == []
     assert page.locator('.r2-model[data-robot="rp_2004_03_25"]').count() == 1
