@@ -13,20 +13,6 @@ from app.scene import PALETTE
 from app.viewer import screenshot as shots
 
 
-def open_tab(lab, browser, robot="planar_2r", hide=True):
-    """A new browser tab showing ``robot``; returns (page, its server-side session)."""
-    page, session = shots.open_tab(lab, browser, robot, hide=hide)
-    shots.settle(page, 0.8)
-    return page, session
-
-
-def fresh(module_tab, robot, hide=True):
-    """The module's tab with ``robot`` loaded anew, settled."""
-    page, session = module_tab(robot, hide=hide)
-    shots.settle(page, 0.8)
-    return page, session
-
-
 def wait_until(condition, timeout=20.0, what="condition"):
     shots.wait_until(condition, timeout, what)
 
@@ -87,7 +73,8 @@ def assert_robot_drawn(page, session):
 
 @pytest.mark.parametrize("robot", ["planar_2r", "rp_2004_03_25", "polar_2r_2016_06_06", "throwing_arm"])
 def test_robot_drawn_and_follows_slider(module_tab, robot):
-    page, session = fresh(module_tab, robot)
+    page, session = module_tab(robot)
+    shots.settle(page, 0.8)                        # the camera at rest before the first picture
     before = assert_robot_drawn(page, session)
     q_before = session.q.copy()
     thumb = shots.slider_thumb(page, session.robot.coordinates[0])
@@ -104,7 +91,7 @@ def test_robot_drawn_and_follows_slider(module_tab, robot):
 
 
 def test_model_panel_shows_typeset_math_and_values(module_tab):
-    page, session = fresh(module_tab, "planar_2r")
+    page, session = module_tab("planar_2r")
     shots.select_tab(page, "Model")
     page.wait_for_selector(".r2-math math", state="visible")
     boxes = page.evaluate("""() => [...document.querySelectorAll('.r2-math math')]
@@ -136,7 +123,7 @@ def choose(page, label, option):
 
 
 def test_picking_another_robot_replaces_the_scene(module_tab):
-    page, session = fresh(module_tab, "planar_2r")
+    page, session = module_tab("planar_2r")
     nodes = shots.scene_node_names(page)
     assert any(n.endswith("/link2__joint/joint") for n in nodes) and not any("sleeve" in n for n in nodes)
     choose(page, "Robot", "RP · Planar RP, prismatic axis across link 1 (exam 2004-03-25)")
@@ -165,8 +152,8 @@ MATH_FONT_STYLES = ("() => [...document.querySelectorAll('style')]"
 
 
 def test_two_tabs_keep_independent_state(lab, browser, module_tab):
-    page_a, session_a = fresh(module_tab, "planar_2r")
-    page_b, session_b = open_tab(lab, browser, "planar_2r")
+    page_a, session_a = module_tab("planar_2r")
+    page_b, session_b = shots.open_tab(lab, browser, "planar_2r")
     try:
         assert session_a is not session_b
         choose(page_a, "Robot", "RP · Planar RP, prismatic axis across link 1 (exam 2004-03-25)")
@@ -186,7 +173,7 @@ def test_two_tabs_keep_independent_state(lab, browser, module_tab):
 @pytest.mark.parametrize("typed, message", [("-3", "must not be negative"), ("", "empty value"),
                                              ("heavy", "is not a number")])
 def test_bad_parameter_is_refused_with_a_message(module_tab, typed, message):
-    page, session = fresh(module_tab, "planar_2r", hide=False)
+    page, session = module_tab("planar_2r", hide=False)
     box = shots.field(page, "m1 [kg]")
     if not box.is_visible():                          # the folder is closed: open it
         page.get_by_text("Parameters", exact=True).click()
