@@ -1,8 +1,9 @@
 """Shared by the tests.
 
-Browser tests: one lab server and one headless Chromium for the whole run, started by the first
-browser test and shared by every browser test module (every test opens its own browser context, i.e.
-an independent tab with its own session).
+Browser tests: one lab server and one headless Chromium for the whole run (per pytest worker),
+started by the first browser test and shared by every browser test module. A test that starts from
+a robot picked in the page takes the tab its module shares (``module_tab``: the robot loaded anew,
+as a new tab would start); the tests of addresses, reloads and several tabs open their own tabs.
 
 Random numbers: every generator that a test or the lab's code makes during a test
 (``numpy.random.default_rng``, ``random.Random``) must be given a seed, so that a run repeats
