@@ -57,8 +57,7 @@ def module_tab(lab, browser):
         else:
             page.keyboard.press("Escape")                 # a dropdown the test before left open
             if shots.field(page, "Group").input_value() != "All robots":     # the whole list, as on a new tab
-                shots.field(page, "Group").click()
-                page.get_by_role("option", name="All robots", exact=True).click()
+                shots.choose(page, "Group", "All robots")
             shots.show_notifications(page)
             page.evaluate("() => document.querySelectorAll('.mantine-Notification-root button').forEach(b => b.click())")
             shots.wait_until(lambda: not page.locator(".mantine-Notification-root").count(), 10,

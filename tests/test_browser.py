@@ -116,17 +116,11 @@ def test_model_panel_shows_typeset_math_and_values(module_tab):
     assert tex.startswith("% Dynamic model of Planar 2R") and "m_{22} = I_{2} + d_{2}^{2} m_{2}" in tex
 
 
-def choose(page, label, option):
-    """Pick an option in a labelled dropdown, as a user would."""
-    shots.field(page, label).click()
-    page.get_by_role("option", name=option, exact=True).click()
-
-
 def test_picking_another_robot_replaces_the_scene(module_tab):
     page, session = module_tab("planar_2r")
     nodes = shots.scene_node_names(page)
     assert any(n.endswith("/link2__joint/joint") for n in nodes) and not any("sleeve" in n for n in nodes)
-    choose(page, "Robot", "RP · Planar RP, prismatic axis across link 1 (exam 2004-03-25)")
+    shots.choose(page, "Robot", "RP · Planar RP, prismatic axis across link 1 (exam 2004-03-25)")
     shots.wait_ready(page, "rp_2004_03_25")
     assert session.robot_name == "rp_2004_03_25"
     wait_until(lambda: any(n.endswith("/link2__joint/sleeve") for n in shots.scene_node_names(page)), what="the RP scene")
@@ -135,8 +129,8 @@ def test_picking_another_robot_replaces_the_scene(module_tab):
     assert page.get_by_role("tab", name="Model").count() == 1
     shots.settle(page, 1.0)
     assert_robot_drawn(page, session)
-    choose(page, "Group", "Throwing arm")              # a group narrows the list ...
-    choose(page, "Robot", "3R · Throwing arm (KUKA LWR 4+ joints 2, 3, 5; passive spring wrist)")   # ... a robot loads
+    shots.choose(page, "Group", "Throwing arm")              # a group narrows the list ...
+    shots.choose(page, "Robot", "3R · Throwing arm (KUKA LWR 4+ joints 2, 3, 5; passive spring wrist)")   # ... a robot loads
     shots.wait_ready(page, "throwing_arm")
     assert [s.name for s in session.robot.bodies] == ["link1", "link2", "link3"]
     # the math font came once, after the page had reported its first robot drawn (the first panels
@@ -156,7 +150,7 @@ def test_two_tabs_keep_independent_state(lab, browser, module_tab):
     page_b, session_b = shots.open_tab(lab, browser, "planar_2r")
     try:
         assert session_a is not session_b
-        choose(page_a, "Robot", "RP · Planar RP, prismatic axis across link 1 (exam 2004-03-25)")
+        shots.choose(page_a, "Robot", "RP · Planar RP, prismatic axis across link 1 (exam 2004-03-25)")
         shots.wait_ready(page_a, "rp_2004_03_25")
         assert session_b.robot_name == "planar_2r"
         thumb = shots.slider_thumb(page_b, "q1")

@@ -171,8 +171,7 @@ def open_exercise(lab, browser, exercise_id, hide=True):
     """A new tab; the student opens the Exercises tab and picks the exercise in the dropdown."""
     page, session = shots.open_tab(lab, browser, "planar_2r", tab="Exercises", height=900, hide=hide)
     ex = load_exercise(exercise_id)
-    shots.field(page, "Exercise").click()
-    page.get_by_role("option", name=option_label(ex), exact=True).click()
+    shots.choose(page, "Exercise", option_label(ex))
     shots.wait_ready(page, ex.robot_ref)
     panel = session.open_panel("exercises")["panel"]
     wait_until(lambda: panel.solution is not None, what="the solution")
@@ -225,8 +224,7 @@ def test_open_an_exercise_and_reveal_its_steps(lab, browser):
         tex = open(download.value.path(), encoding="utf-8").read()
         assert tex.startswith("% Exercise 2004-03-25#1") and r"\item \textbf{Kinematics of link1}" in tex
         # another robot picked by hand: the exercise waits, a button brings its robot back
-        shots.field(page, "Robot").click()
-        page.get_by_role("option", name="2R · Planar 2R arm (vertical plane)", exact=True).click()
+        shots.choose(page, "Robot", "2R · Planar 2R arm (vertical plane)")
         shots.wait_ready(page, "planar_2r")
         back = page.get_by_role("button", name="Show the exercise's robot")
         back.wait_for()

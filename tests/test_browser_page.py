@@ -31,8 +31,7 @@ def open_page(lab, browser, query, robot):
 def pick(page, session, name):
     """Choose a robot with the picker, as a user would, and wait until its panels are built."""
     info = next(i for i in session.picker.catalog if i.name == name)
-    shots.field(page, "Robot").click()
-    page.get_by_role("option", name=session.picker.option_of(info), exact=True).click()
+    shots.choose(page, "Robot", session.picker.option_of(info))
     shots.wait_ready(page, name)
     session.ready.wait(60)
 
@@ -164,8 +163,7 @@ def test_switching_controller_clears_the_previous_run(module_tab):
     panel.run(wait=True)
     page.get_by_text("completed").first.wait_for()
     assert page.locator(".uplot").count() >= 2
-    shots.field(page, "Controller").click()
-    page.get_by_role("option", name="PD + on-line gravity compensation g(q)", exact=True).click()
+    shots.choose(page, "Controller", "PD + on-line gravity compensation g(q)")
     shots.wait_until(lambda: panel.result is None, 5, "the run to be cleared")
     page.wait_for_function("() => document.querySelectorAll('.uplot').length === 0", timeout=5000)
     assert "completed" not in page.inner_text("body") and "m2=3" not in page.inner_text("body")
@@ -262,15 +260,13 @@ def test_picker_is_sorted_searchable_and_a_group_loads_nothing(lab, browser):
         assert [i.sort_key() for i in catalog] == sorted(i.sort_key() for i in catalog)
         assert list(session.picker.robots.options[1:]) == [session.picker.option_of(i) for i in catalog]
         generation = session.generation
-        shots.field(page, "Group").click()
-        page.get_by_role("option", name="Catching arm", exact=True).click()
+        shots.choose(page, "Group", "Catching arm")
         shots.wait_until(lambda: len(session.picker.robots.options) == 2, 5, "the group's list")
         time.sleep(0.5)
         assert session.generation == generation and session.robot_name == "planar_2r"
         for query, expected in (("2004-03-25", "rp_2004_03_25"), ("3R 2019", "rrr_2019_04_29"),
                                 ("rp 2020-06", "rp_2020_06_05")):
-            shots.field(page, "Group").click()
-            page.get_by_role("option", name="All robots", exact=True).click()
+            shots.choose(page, "Group", "All robots")
             shots.field(page, "Find robot").fill(query)
             matching = [session.picker.option_of(i) for i in catalog if i.matches(query)]
             shots.wait_until(lambda: list(session.picker.robots.options[1:]) == matching, 5, query)

@@ -190,6 +190,12 @@ def field(page, label: str):
                         "/ancestor::div[contains(@class,'mantine-Flex-root')][1]//input").first
 
 
+def choose(page, label: str, option: str) -> None:
+    """Pick ``option`` in the labelled dropdown, as a user does (open the list, click the option)."""
+    field(page, label).click()
+    page.get_by_role("option", name=option, exact=True).click()
+
+
 def slider_thumb(page, label: str):
     """The thumb of a labelled slider (focus it and press keys: ArrowRight, End, ...)."""
     return page.locator(f"xpath=//label[normalize-space()='{label}']"

@@ -308,8 +308,7 @@ class Walk:
         info = next(i for i in self.session.picker.catalog if i.name == name)
         words = (info.date or info.family) if self.rng.random() < 0.5 else ""   # narrow the list, or not
         self._find(words)
-        shots.field(self.page, "Robot").click()
-        self.page.get_by_role("option", name=self.session.picker.option_of(info), exact=True).click()
+        shots.choose(self.page, "Robot", self.session.picker.option_of(info))
         shots.wait_until(lambda: self.session.robot_name == name, 10, f"{name} to load")
 
     def switch_tab(self) -> None:
@@ -366,8 +365,7 @@ class Walk:
         shots.select_tab(self.page, "Control")
         panel = self.session.open_panel("control")["panel"]
         titles = [t for t in panel._titles if t != panel.controller.value]
-        shots.field(self.page, "Controller").click()
-        self.page.get_by_role("option", name=self.rng.choice(titles), exact=True).click()
+        shots.choose(self.page, "Controller", self.rng.choice(titles))
         shots.wait_until(lambda: panel.result is None and not panel._result_widgets, 5,
                          "the previous run's plots to go")
 
@@ -413,8 +411,7 @@ class Walk:
         if self.session.robot_name != "throwing_arm":
             self._find("throwing")
             info = next(i for i in self.session.picker.catalog if i.name == "throwing_arm")
-            shots.field(self.page, "Robot").click()
-            self.page.get_by_role("option", name=self.session.picker.option_of(info), exact=True).click()
+            shots.choose(self.page, "Robot", self.session.picker.option_of(info))
             shots.wait_until(lambda: self.session.robot_name == "throwing_arm", 10, "the throwing arm")
             self._wait_ready()
         title = next(t for t in self._tab_titles() if "Throw" in t)
