@@ -3,7 +3,7 @@
 file's values), so that the table in README measures the chains it names."""
 import pytest
 
-from app.core import compact, steps
+from app.core import compact, steps, trig
 from app.core.dynamics import forget_derivations
 from app.core.robot import load_robot
 from benchmarks import scaling
@@ -11,21 +11,12 @@ from benchmarks import scaling
 CHAINS = scaling.PLANAR + scaling.SPATIAL + scaling.PUMA
 
 
-def expected_text(name: str) -> str:
-    if name.startswith("chain_planar_"):
-        return scaling.planar_text(int(name[len("chain_planar_"):-1]))
-    n = 6 if name == "chain_puma_6r" else int(name[len("chain_spatial_"):-1])
-    title = {6: "PUMA-like 6R arm from DH rows, principal inertias (benchmark)"}.get(
-        n, f"Spatial {n}R chain, first {n} rows of a PUMA-like DH table (benchmark)")
-    return scaling.spatial_text(n, name, title)
-
-
 @pytest.mark.parametrize("name", CHAINS)
 def test_chain_file_is_the_generated_one_and_loads(name):
     path = scaling.HERE / f"{name}.yaml"
-    assert path.read_text() == expected_text(name)
+    assert path.read_text() == scaling.robot_texts()[name]
     robot = load_robot(path)
-    joints = 6 if name == "chain_puma_6r" else int(name.rsplit("_", 1)[1][:-1])
+    joints = 6 if name.startswith("chain_puma_6r") else int(name.rsplit("_", 1)[1][:-1])
     assert robot.n == joints
     assert len(robot.bodies) == joints
 
@@ -34,5 +25,6 @@ def test_forget_derivations_empties_every_memory_a_cold_benchmark_must_not_reuse
     compact._NICE_CACHE[("x", ())] = 1
     compact._FACTOR_CACHE["x"] = 1
     steps._ENTRY_LATEX[("x",)] = "x"
+    trig._SPARSE["x"] = None
     forget_derivations()
-    assert not compact._NICE_CACHE and not compact._FACTOR_CACHE and not steps._ENTRY_LATEX
+    assert not compact._NICE_CACHE and not compact._FACTOR_CACHE and not steps._ENTRY_LATEX and not trig._SPARSE

@@ -22,7 +22,7 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import sympy as sp
 
-from . import compact, model_cache, reproducible_sympy, steps
+from . import compact, model_cache, reproducible_sympy, steps, trig
 from .compact import natural_angles, nice_coefficient, pretty, tidy  # noqa: F401 (pretty: public here too)
 from .expressions import ExpressionError, NotStorable, dump_exact_list, load_exact_list, symbol
 from .kinematics import Kinematics
@@ -160,6 +160,17 @@ class Dynamics:
                    parametrization=parametrization, steps=steps, **fields)
 
 
+#: beyond this many terms (trigonometric terms times the terms of their coefficients) in an entry of
+#: c(q, dq) written out, C and c are written through the Christoffel matrices instead: a planar 7R's
+#: c has 504 terms per entry, a 6R arm's with full inertia tensors thousands; the shipped robots at
+#: most 42
+LONG_ENTRY = 200
+
+
+def _term_count(tp: TrigPoly) -> int:
+    return sum(len(sp.Add.make_args(coeff)) for coeff in tp.terms.values())
+
+
 def _highlight(value) -> Dict[str, List[str]]:
     return {as_text(k): as_texts(v) for k, v in as_mapping(value).items()}
 
@@ -242,6 +253,7 @@ def forget_derivations() -> None:
         _memory.clear()
     compact.forget()
     steps.forget()
+    trig.forget()
     from .numeric import forget_compiled        # here: the numeric package imports this module
     forget_compiled()                           # the compiled models hold their robot's derivation
 
@@ -266,6 +278,7 @@ class _Deriver:
         self.masses = [p.symbol for p in robot.parameters.values() if p.kind == "mass"]
         self.short_trig = shorthand_is_clear(robot.parameters)
         self._shown: Dict[frozenset, sp.Expr] = {}
+        self.written_through = 0        # c's longest entry, when c is written through C_i (LONG_ENTRY)
 
     def quadratic_form(self, Mi) -> sp.Expr:
         """1/2 dq^T Mi dq written term by term: 1/2 m_jj dq_j^2 + m_jk dq_j dq_k."""
@@ -346,7 +359,7 @@ class _Deriver:
         omegas, kinetic, potential (per body), M_tp and U_tp."""
         robot, n = self.robot, self.n
         positions, velocities, omegas, kinetic, potential = {}, {}, {}, {}, {}
-        M_tp = [[TrigPoly() for _ in range(n)] for _ in range(n)]
+        shares = [[[] for _ in range(n)] for _ in range(n)]     # each body's share of each entry of M
         U_tp = TrigPoly()
         dq = sp.Matrix(self.dq)
         gvec = robot.gravity
@@ -363,13 +376,15 @@ class _Deriver:
             kinetic[body.name] = self.quadratic_form(Mi)
             for j in range(n):
                 for k in range(n):
-                    M_tp[j][k] = M_tp[j][k] + Mi[j][k]
+                    shares[j][k].append(Mi[j][k])
             Ui = TrigPoly()
             if body.mass != 0 and any(e != 0 for e in gvec):
                 Ui = _tp(-body.mass * (gvec.T * p)[0])
             potential[body.name] = self.X(Ui)
             U_tp = U_tp + Ui
             self._body_steps(body.name, p, v, w, kinetic[body.name])
+        M_tp = [[TrigPoly.sum(shares[j][k]) if k >= j else None for k in range(n)] for j in range(n)]
+        M_tp = [[M_tp[j][k] if k >= j else M_tp[k][j] for k in range(n)] for j in range(n)]
         return {"positions": positions, "velocities": velocities, "omegas": omegas, "kinetic": kinetic,
                 "potential": potential, "M_tp": M_tp, "U_tp": U_tp}
 
@@ -382,16 +397,16 @@ class _Deriver:
         I = body.inertia
         for j in range(n):
             for k in range(j, n):
-                acc = TrigPoly()
+                acc = []
                 if body.mass != 0:
                     for r in range(3):
                         if Jv_tp[r][j].terms and Jv_tp[r][k].terms:
-                            acc = acc + (Jv_tp[r][j] * Jv_tp[r][k]).scale(body.mass)
+                            acc.append((Jv_tp[r][j] * Jv_tp[r][k]).scale(body.mass))
                 for r in range(3):
                     for s in range(3):
                         if I[r, s] != 0 and Jw_tp[r][j].terms and Jw_tp[s][k].terms:
-                            acc = acc + (Jw_tp[r][j] * Jw_tp[s][k]).scale(I[r, s])
-                Mi[j][k] = acc.expand()
+                            acc.append((Jw_tp[r][j] * Jw_tp[s][k]).scale(I[r, s]))
+                Mi[j][k] = TrigPoly.sum(acc)
                 if k != j:
                     Mi[k][j] = Mi[j][k]
         return Mi
@@ -442,7 +457,7 @@ class _Deriver:
         dq = sp.Matrix(self.dq)
         dM = [[[M_tp[i][j].diff(qk) for qk in self.q] for j in range(n)] for i in range(n)]
         christoffel = []
-        C_tp = [[TrigPoly() for _ in range(n)] for _ in range(n)]
+        C_parts = [[[] for _ in range(n)] for _ in range(n)]
         for i in range(n):
             Ci_tp = [[(dM[i][j][k] + dM[i][k][j] - dM[j][k][i]).scale(sp.Rational(1, 2)) for k in range(n)]
                      for j in range(n)]
@@ -451,19 +466,33 @@ class _Deriver:
             for j in range(n):
                 for k in range(n):
                     if Ci_tp[j][k].terms:
-                        C_tp[i][j] = C_tp[i][j] + Ci_tp[j][k].scale(dq[k])
+                        C_parts[i][j].append(Ci_tp[j][k].scale(dq[k]))
             self.step(f"Christoffel matrix $C_{{{i + 1}}}$",
                       rf"C_{{{i + 1}}}(q) = \frac{{1}}{{2}}\left(\frac{{\partial m_{{{i + 1}}}}}{{\partial q}} + "
                       rf"\left(\frac{{\partial m_{{{i + 1}}}}}{{\partial q}}\right)^T - \frac{{\partial M}}{{\partial q_{{{i + 1}}}}}\right) = {self.L(Ci)}",
                       rf"Christoffel symbols of row {i + 1}; $c_{{{i + 1}}} = \dot q^T C_{{{i + 1}}} \dot q$.",
                       joints=[robot.bodies[min(i, len(robot.bodies) - 1)].name])
-        C_tp = [[e.expand() for e in row] for row in C_tp]
-        C = self.MX(C_tp)
-        c_tp = [sum((C_tp[i][j].scale(dq[j]) for j in range(n)), TrigPoly()).expand() for i in range(n)]
-        c = sp.Matrix([self.X(e) for e in c_tp])
-        self.step("Coriolis and centrifugal terms", rf"c(q,\dot q) = {self.L(c)}", r"$c_i = \dot q^T C_i \dot q$.")
-        self.step(r"Factorization $c = C(q, \dot q)\, \dot q$", rf"C(q,\dot q) = {self.L(C)}",
-                  r"Built from the Christoffel symbols, so that $\dot M - 2C$ is skew-symmetric.")
+        C_tp = [[TrigPoly.sum(parts) for parts in row] for row in C_parts]
+        c_tp = [TrigPoly.sum(C_tp[i][j].scale(dq[j]) for j in range(n)) for i in range(n)]
+        longest = max(_term_count(e) for e in c_tp)
+        skew = r"Built from the Christoffel symbols, so that $\dot M - 2C$ is skew-symmetric."
+        if longest <= LONG_ENTRY:
+            C = self.MX(C_tp)
+            c = sp.Matrix([self.X(e) for e in c_tp])
+            self.step("Coriolis and centrifugal terms", rf"c(q,\dot q) = {self.L(c)}", r"$c_i = \dot q^T C_i \dot q$.")
+            self.step(r"Factorization $c = C(q, \dot q)\, \dot q$", rf"C(q,\dot q) = {self.L(C)}", skew)
+            return christoffel, C_tp, C, c
+        # written out, c would be unreadable and slow to typeset: the Christoffel symbols shown above
+        # are its intermediate variables (C and c hold the same values, nested instead of expanded)
+        self.written_through = longest
+        C = sp.Matrix(n, n, lambda i, j: sp.Add(*[christoffel[i][j, k] * dq[k] for k in range(n)]))
+        c = sp.Matrix([sp.Add(*[C[i, j] * dq[j] for j in range(n)]) for i in range(n)])
+        kept = (f"Written out, an entry has up to {longest} terms: it is kept through the Christoffel "
+                "matrices above, as intermediate variables.")
+        self.step("Coriolis and centrifugal terms",
+                  rf"c_i(q,\dot q) = \dot q^T C_i(q)\, \dot q,\quad i = 1, \dots, {n}", kept)
+        self.step(r"Factorization $c = C(q, \dot q)\, \dot q$",
+                  rf"C_{{ij}}(q,\dot q) = \sum_{{k=1}}^{{{n}}} \left(C_i\right)_{{jk}}(q)\, \dot q_k", f"{skew} {kept}")
         return christoffel, C_tp, C, c
 
     def _friction(self):
@@ -483,10 +512,15 @@ class _Deriver:
 
     def _equations_step(self, M, c, g, spring_vec, friction) -> None:
         robot = self.robot
+        equation = (r"M(q)\ddot q + c(q,\dot q) + g(q)" + (r" + k(q)" if robot.springs else "")
+                    + (r" + \tau_f" if robot.has_friction else "") + r" = \tau")
+        if self.written_through:
+            self.step("Equations of motion", equation, "The Euler-Lagrange equations, one row per coordinate, "
+                      "with M, c and g as above (written out, a row would have more than "
+                      f"{self.written_through} terms).")
+            return
         lhs = M * sp.Matrix(self.ddq) + c + g + spring_vec + friction
-        self.step("Equations of motion", rf"M(q)\ddot q + c(q,\dot q) + g(q)"
-                  + (r" + k(q)" if robot.springs else "") + (r" + \tau_f" if robot.has_friction else "")
-                  + rf" = \tau,\quad {self.L(lhs)} = {self.L(sp.Matrix(self._tau_names()))}",
+        self.step("Equations of motion", rf"{equation},\quad {self.L(lhs)} = {self.L(sp.Matrix(self._tau_names()))}",
                   "The Euler-Lagrange equations, one row per coordinate.")
 
     def _parametrization_steps(self, param: Parametrization) -> None:
@@ -543,16 +577,15 @@ class _Deriver:
         def rows(acc, vel_for_C, vel_for_friction):
             out = []
             for i in range(n):
-                t = TrigPoly()
+                t = []
                 for j in range(n):
                     if M_tp[i][j].terms:
-                        t = t + M_tp[i][j].scale(acc[j])
+                        t.append(M_tp[i][j].scale(acc[j]))
                     if C_tp[i][j].terms:
-                        t = t + C_tp[i][j].scale(vel_for_C[j])
-                t = t + g_tp[i] + k_tp[i]
+                        t.append(C_tp[i][j].scale(vel_for_C[j]))
                 f = fr[i].subs(dict(zip(dq, vel_for_friction))) if fr[i] != 0 else 0
-                t = t + _tp(f)
-                out.append(t.expand())
+                t += [g_tp[i], k_tp[i], _tp(f)]
+                out.append(TrigPoly.sum(t))
             return out
 
         tau_rows = rows(ddq, dq, dq)

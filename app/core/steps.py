@@ -140,6 +140,12 @@ def rounded(expr, digits: int = 5):
     return expr.xreplace(repl)
 
 
+#: sums longer than this are printed in sympy's stored order: sorting their terms took half of the
+#: printing of a 6R arm with full inertia tensors (entries of 400 terms and more); no shipped
+#: robot's formula comes near it, so what a student reads is unchanged
+LONG_SUM = 40
+
+
 def to_latex(expr, coordinates=None, short_trig: bool = True, **kwargs) -> str:
     """LaTeX of a sympy object using the lab's symbol conventions; sines and cosines of sums of
     coordinates are written s_{12}, c_{1} as in the exams (``short_trig=False`` keeps sin/cos).
@@ -174,6 +180,8 @@ def to_latex(expr, coordinates=None, short_trig: bool = True, **kwargs) -> str:
     names = {s: symbol_latex(s.name, coords) for s in expr.free_symbols if isinstance(s, sp.Symbol)}
     names.update(trig_names)
     kwargs.setdefault("mat_delim", "(")
+    if not isinstance(expr, sp.MatrixBase) and len(sp.Add.make_args(expr)) > LONG_SUM:
+        kwargs.setdefault("order", "none")
     return sp.latex(expr, symbol_names=names, **kwargs)
 
 

@@ -89,6 +89,15 @@ class Sparse(dict):
 
     __rmul__ = __mul__
 
+    def times(self, other: "Sparse") -> "Sparse":
+        """The product of two polynomials."""
+        out: Dict[tuple, Fraction] = {}
+        for k1, v1 in self.items():
+            for k2, v2 in other.items():
+                key = _monomial_product(k1, k2)
+                out[key] = out.get(key, 0) + v1 * v2
+        return Sparse({k: v for k, v in out.items() if v})
+
     def __ne__(self, other):          # "!= 0" tests a polynomial for being non-zero
         return bool(self) if isinstance(other, int) and other == 0 else dict.__ne__(self, other)
 
@@ -97,6 +106,17 @@ class Sparse(dict):
     def to_expr(self) -> sp.Expr:
         return sp.Add(*[sp.Rational(v.numerator, v.denominator) * sp.Mul(*[s ** e for s, e in k])
                         for k, v in self.items()])
+
+
+def _monomial_product(k1: tuple, k2: tuple) -> tuple:
+    if not k1:
+        return k2
+    if not k2:
+        return k1
+    powers = dict(k1)
+    for sym, exp in k2:
+        powers[sym] = powers.get(sym, 0) + exp
+    return tuple(sorted(powers.items(), key=lambda item: item[0].name))
 
 
 Frequency = Tuple[Tuple[sp.Symbol, int], ...]   # sorted (angle symbol, integer multiple) pairs
@@ -126,6 +146,86 @@ def _combine(f1: Frequency, f2: Frequency, sign: int) -> Dict[sp.Symbol, int]:
     return out
 
 
+def _add_part(parts: Dict[Key, list], freq: Dict[sp.Symbol, int], kind: str, coeff) -> None:
+    """Put ``coeff * cos|sin(freq . theta)`` into ``parts`` (lists of coefficients per basis
+    function, summed once by ``_summed``), with the frequency made canonical (sin changes sign)."""
+    canon, sign = _canonical(freq)
+    if not canon:
+        if kind == "c":
+            parts[_ONE].append(coeff)
+        return
+    parts[(canon, kind)].append(sign * coeff if kind == "s" else coeff)
+
+
+def _summed(parts: Dict[Key, list]) -> "TrigPoly":
+    return TrigPoly({key: expanded_sum(coeffs) for key, coeffs in parts.items()})
+
+
+def expanded_sum(coeffs: list) -> sp.Expr:
+    """``sympy.expand(sympy.Add(*coeffs))``, the very same expression, multiplied out on exact
+    dictionaries of monomials when every coefficient is a polynomial with rational coefficients
+    (sums and products of those, positive integer powers): sympy's expand built every
+    intermediate product as an expression, most of a large model's derivation.
+
+    >>> from app.core.expressions import symbol
+    >>> a, b, m = symbol("a"), symbol("b"), symbol("m")
+    >>> expanded_sum([m*(a + b)**2, -m*a**2])
+    2*a*b*m + b**2*m
+    """
+    total = Sparse()
+    for coeff in coeffs:
+        poly = _sparse(coeff)
+        if poly is None:
+            return sp.expand(sp.Add(*coeffs))
+        total = total + poly
+    return total.to_expr()
+
+
+_SPARSE: Dict[sp.Expr, Optional[Sparse]] = {}
+
+
+def _sparse(expr) -> Optional[Sparse]:
+    """An expression as a Sparse polynomial (multiplied out), or None when it is not a polynomial
+    with rational coefficients. Remembered: the same factors recur across a model."""
+    hit = _SPARSE.get(expr, False)
+    if hit is not False:
+        return hit
+    if expr.is_Add:
+        out = Sparse()
+        for arg in expr.args:
+            part = _sparse(arg)
+            if part is None:
+                out = None
+                break
+            out = out + part
+    elif expr.is_Mul:
+        out = Sparse({(): Fraction(1)})
+        for arg in expr.args:
+            part = _sparse(arg)
+            if part is None:
+                out = None
+                break
+            out = out.times(part)
+    elif expr.is_Pow and expr.exp.is_Integer and expr.exp > 1 and expr.base.is_Add:
+        base = _sparse(expr.base)
+        out = None
+        if base is not None:
+            out = Sparse({(): Fraction(1)})
+            for _ in range(int(expr.exp)):
+                out = out.times(base)
+    else:
+        out = Sparse.of(expr)           # a number, a symbol, a power of a symbol (or None)
+    if len(_SPARSE) > 200000:
+        _SPARSE.clear()
+    _SPARSE[expr] = out
+    return out
+
+
+def forget() -> None:
+    """Empty the memory of multiplied-out coefficients (for cold benchmarks)."""
+    _SPARSE.clear()
+
+
 class TrigPoly:
     """A trigonometric polynomial in canonical form (immutable in use; see module docstring)."""
 
@@ -142,19 +242,6 @@ class TrigPoly:
     @staticmethod
     def constant(value) -> "TrigPoly":
         return TrigPoly({_ONE: sp.sympify(value)}) if value != 0 else TrigPoly()
-
-    @staticmethod
-    def _add_term(terms: Dict[Key, sp.Expr], freq: Dict[sp.Symbol, int], kind: str, coeff) -> None:
-        canon, sign = _canonical(freq)
-        if not canon:
-            if kind == "s":
-                return
-            key = _ONE
-        else:
-            key = (canon, kind)
-            if kind == "s":
-                coeff = sign * coeff
-        terms[key] = terms.get(key, 0) + coeff
 
     @classmethod
     def from_expr(cls, expr) -> "TrigPoly":
@@ -205,14 +292,14 @@ class TrigPoly:
             else:
                 return TrigPoly.constant(expr)   # not an integer combination: keep opaque
         cos_phase, sin_phase = sp.cos(phase), sp.sin(phase)
-        terms: Dict[Key, sp.Expr] = {}
+        parts: Dict[Key, list] = defaultdict(list)
         if isinstance(expr, sp.cos):   # cos(x + p) = cos p cos x - sin p sin x
-            cls._add_term(terms, freq, "c", cos_phase)
-            cls._add_term(terms, freq, "s", -sin_phase)
+            _add_part(parts, freq, "c", cos_phase)
+            _add_part(parts, freq, "s", -sin_phase)
         else:                          # sin(x + p) = cos p sin x + sin p cos x
-            cls._add_term(terms, freq, "s", cos_phase)
-            cls._add_term(terms, freq, "c", sin_phase)
-        return TrigPoly(terms)
+            _add_part(parts, freq, "s", cos_phase)
+            _add_part(parts, freq, "c", sin_phase)
+        return TrigPoly({key: sp.Add(*coeffs) for key, coeffs in parts.items()})
 
     # ----------------------------------------------------------------- arithmetic
     def __add__(self, other) -> "TrigPoly":
@@ -245,32 +332,42 @@ class TrigPoly:
     def __mul__(self, other) -> "TrigPoly":
         if not isinstance(other, TrigPoly):
             return self.scale(other)
-        terms: Dict[Key, sp.Expr] = {}
+        parts: Dict[Key, list] = defaultdict(list)     # one sum per basis function, built once
         half = sp.Rational(1, 2)
         for (f1, k1), c1 in self.terms.items():
             for (f2, k2), c2 in other.terms.items():
                 coeff = c1 * c2
                 if not f1:
-                    self._add_term(terms, dict(f2), k2, coeff)
+                    _add_part(parts, dict(f2), k2, coeff)
                     continue
                 if not f2:
-                    self._add_term(terms, dict(f1), k1, coeff)
+                    _add_part(parts, dict(f1), k1, coeff)
                     continue
                 plus, minus = _combine(f1, f2, 1), _combine(f1, f2, -1)
                 h = coeff * half
                 if k1 == "c" and k2 == "c":
-                    self._add_term(terms, minus, "c", h)
-                    self._add_term(terms, plus, "c", h)
+                    _add_part(parts, minus, "c", h)
+                    _add_part(parts, plus, "c", h)
                 elif k1 == "s" and k2 == "s":
-                    self._add_term(terms, minus, "c", h)
-                    self._add_term(terms, plus, "c", -h)
+                    _add_part(parts, minus, "c", h)
+                    _add_part(parts, plus, "c", -h)
                 elif k1 == "s" and k2 == "c":
-                    self._add_term(terms, plus, "s", h)
-                    self._add_term(terms, minus, "s", h)
+                    _add_part(parts, plus, "s", h)
+                    _add_part(parts, minus, "s", h)
                 else:  # cos a sin b
-                    self._add_term(terms, plus, "s", h)
-                    self._add_term(terms, minus, "s", -h)
-        return TrigPoly(terms).expand()
+                    _add_part(parts, plus, "s", h)
+                    _add_part(parts, minus, "s", -h)
+        return _summed(parts)
+
+    @staticmethod
+    def sum(polys: Iterable["TrigPoly"]) -> "TrigPoly":
+        """The expanded sum of many polynomials, each coefficient added up once (a chain of ``+``
+        rebuilds every coefficient at each step)."""
+        parts: Dict[Key, list] = defaultdict(list)
+        for poly in polys:
+            for key, coeff in poly.terms.items():
+                parts[key].append(coeff)
+        return _summed(parts)
 
     __rmul__ = __mul__
 
