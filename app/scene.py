@@ -524,17 +524,17 @@ class RobotDrawing:
     def bounds(self, qs: Sequence[Sequence[float]]) -> Tuple[np.ndarray, np.ndarray]:
         """Axis-aligned world bounding box of the drawing over several configurations."""
         lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
-        local = {}
+        corners: Dict[str, list] = {}          # the 8 corners of each part's box, per attachment
         for part in self.parts:
-            local.setdefault(part.attach, []).append(part.mesh.bounds)
+            b = part.mesh.bounds
+            corners.setdefault(part.attach, []).append(np.stack(np.meshgrid(*b.T, indexing="ij"), -1).reshape(-1, 3))
+        stacked = {attach: np.vstack(boxes) for attach, boxes in corners.items()}
         for q in qs:
             poses = self.poses(q)
-            for attach, boxes in local.items():
+            for attach, points in stacked.items():
                 T = poses[attach]
-                for b in boxes:
-                    corners = np.array([[x, y, z] for x in b[:, 0] for y in b[:, 1] for z in b[:, 2]])
-                    world = corners @ T[:3, :3].T + T[:3, 3]
-                    lo, hi = np.minimum(lo, world.min(0)), np.maximum(hi, world.max(0))
+                world = points @ T[:3, :3].T + T[:3, 3]
+                lo, hi = np.minimum(lo, world.min(0)), np.maximum(hi, world.max(0))
         return lo, hi
 
     def framing(self, q=None, samples: int = 48, seed: int = 0) -> Framing:
