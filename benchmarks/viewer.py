@@ -8,11 +8,13 @@ time (a busy machine inflates wall time much more than CPU time).
   fresh browser tab has drawn the robot (first frame: timed in the page, the second animation
   frame after its first link is in the scene, confirmed by a picture holding the link's colour;
   pictures alone took 0.2-1 s each while the page loads, which hid when the frame came) and until
-  its panels are built (ready, the page's ready marker). CPU: the server process's (at server up and at
-  ready). Baseline: viser's minimal app (a process that starts ``viser.ViserServer`` and adds one
+  its panels are built (ready: the second animation frame after the page's ready marker, timed in
+  the page). CPU: the server process's (at server up and at ready). Baseline: viser's minimal app (a process that starts ``viser.ViserServer`` and adds one
   box of the same colour), timed the same way.
 - switch: from choosing another robot (``session.load_robot``, what the picker calls) until the
-  browser shows the new robot with its panels built, for every robot of ``SWITCH`` (both arms
+  browser shows the new robot with its panels built (the second animation frame after the page's
+  ready marker names the robot, timed in the page; Playwright's wait for the marker, which
+  answered 0.1-0.25 s later, only confirms it), for every robot of ``SWITCH`` (both arms
   among them; ``--all-robots``: every shipped robot): first after a restart (derived before: the
   disk caches are filled, the process's memory caches empty), then again (memory). CPU: the
   benchmark process's, which holds the server, and its worker processes' (the browser's own work
@@ -119,6 +121,31 @@ FIRST_FRAME_JS = """(() => { const look = () => {
   requestAnimationFrame(look); })()"""
 
 
+#: installed in the page: for each robot and generation the ready marker names, the time (epoch ms)
+#: of the second animation frame after the marker says ready (that frame shows the new robot and
+#: its panels). Playwright's own wait noticed the marker 0.1-0.25 s late on a busy page (it polls
+#: on animation frames and answers through its driver), which hid how soon the page was ready.
+READY_JS = """(() => { if (window.__r2Ready) return; window.__r2Ready = {};
+  const look = () => {
+    const el = document.querySelector('.r2-status[data-ready="1"]');
+    if (!el) return;
+    const key = el.getAttribute('data-robot') + ':' + el.getAttribute('data-generation');
+    if (key in window.__r2Ready) return;
+    window.__r2Ready[key] = null;
+    requestAnimationFrame(() => requestAnimationFrame(() => {
+      window.__r2Ready[key] = performance.timeOrigin + performance.now(); })); };
+  const start = () => { new MutationObserver(look).observe(document.documentElement,
+    {subtree: true, childList: true, attributes: true, characterData: true}); look(); };
+  if (document.documentElement) start(); else document.addEventListener('DOMContentLoaded', start); })()"""
+
+
+def _ready_at(page, robot: str, generation) -> float:
+    """Epoch seconds of the frame that showed ``robot`` (of ``generation``) ready (READY_JS)."""
+    key = f"{robot}:{generation}"
+    page.wait_for_function(f"() => window.__r2Ready && window.__r2Ready[{key!r}]", timeout=120000)
+    return page.evaluate(f"() => window.__r2Ready[{key!r}]") / 1000.0
+
+
 def start_to_ready(browser, args, env, ready: bool = True, node_suffix: str = "/link1") -> dict:
     """Start a server process (``python ARGS``) and open its page: wall and CPU figures. First
     frame: the second animation frame after the scene node ``…node_suffix`` exists in the page
@@ -137,6 +164,7 @@ def start_to_ready(browser, args, env, ready: bool = True, node_suffix: str = "/
         t1, t1_epoch = time.perf_counter(), time.time()
         context = browser.browser.new_context(viewport={"width": 1280, "height": 720}, device_scale_factor=1)
         context.add_init_script(FIRST_FRAME_JS.replace("SUFFIX", node_suffix))
+        context.add_init_script(READY_JS)
         page = context.new_page()
         page.goto(url)
         frame = float("nan")                       # not drawn within 120 s
@@ -155,7 +183,8 @@ def start_to_ready(browser, args, env, ready: bool = True, node_suffix: str = "/
         out = {"up": up, "up cpu": up_cpu, "frame": frame}
         if ready:
             wait_ready(page, "planar_2r")
-            out["ready"] = time.perf_counter() - t1
+            generation = page.get_attribute(".r2-status", "data-generation")
+            out["ready"] = _ready_at(page, "planar_2r", generation) - t1_epoch
         out["cpu"] = _process_cpu(proc.pid)
         page.context.close()
         return out
@@ -196,11 +225,13 @@ def _cpu_since(lab, before: dict) -> float:
 
 def _switch(page, session, name) -> tuple:
     """(wall, CPU of the server: this process and its workers) from ``load_robot`` until the
-    browser shows the robot ready."""
-    t0, c0 = time.perf_counter(), _server_cpu(session.lab)
+    browser shows the robot ready (the frame after the ready marker, timed in the page: READY_JS)."""
+    page.evaluate(READY_JS)                     # once per page (it returns at once when installed)
+    t0, c0 = time.time(), _server_cpu(session.lab)
     threading.Thread(target=session.load_robot, args=(name,), daemon=True).start()
     page.wait_for_selector(f'.r2-status[data-ready="1"][data-robot="{name}"]', state="attached", timeout=300000)
-    return time.perf_counter() - t0, _cpu_since(session.lab, c0)
+    cpu = _cpu_since(session.lab, c0)
+    return _ready_at(page, name, session.generation) - t0, cpu
 
 
 def _forget_memory(lab) -> None:
