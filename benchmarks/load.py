@@ -131,7 +131,8 @@ class Client:
              "fov": 1.0, "near": 0.01, "far": 100.0, "image_height": 480, "image_width": 640,
              "look_at": [0.0, 0.0, 0.0], "up_direction": [0.0, 0.0, 1.0]}
 
-    def __init__(self, port: int, query: str):
+    def __init__(self, port: int, query: Optional[str]):
+        """``query``: the address the tab reports at once (``?robot=...``), or None for none."""
         self.ws = connect(f"ws://127.0.0.1:{port}", subprotocols=PROTOCOL, max_size=None, open_timeout=60,
                           additional_headers={"Origin": f"http://127.0.0.1:{port}"})
         self.widgets: Dict[str, dict] = {}          # label -> last message adding it
@@ -145,7 +146,8 @@ class Client:
         self.reader.start()
         self.send(self.HELLO)
         self.report = self.wait_widget("r2-page-report", 120)
-        self.update(self.report, f"url {query}")
+        if query is not None:
+            self.update(self.report, f"url {query}")
 
     def send(self, message: dict) -> None:
         self.ws.send(msgspec.msgpack.encode(message))

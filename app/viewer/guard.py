@@ -110,7 +110,7 @@ _SERVE_PATCH_LOCK = threading.Lock()
 
 
 @contextlib.contextmanager
-def handshake_checked(policy: HandshakePolicy):
+def handshake_checked(policy: HandshakePolicy, on_request: Optional[Callable[[str, Any], None]] = None):
     """Run ``policy`` on every request of the viser server created inside this block.
 
     Adapter, because viser 1.1.1 has no public hook for the handshake: its ``WebsockServer``
@@ -118,7 +118,8 @@ def handshake_checked(policy: HandshakePolicy):
     ``websockets.asyncio.server.serve``, which is websockets' documented interception point.
     While the block runs (``ViserServer.__init__`` returns only once the socket is bound), that
     ``serve`` is wrapped so that our check runs first, the token segment is taken off the path,
-    and then viser's own handler runs. The lock keeps two servers started at once apart."""
+    and then viser's own handler runs (``on_request(path, headers)`` is told of each request let
+    in, the path without the token). The lock keeps two servers started at once apart."""
     import websockets.asyncio.server as ws_server
     from websockets.datastructures import Headers
     from websockets.http11 import Response
@@ -134,6 +135,8 @@ def handshake_checked(policy: HandshakePolicy):
                                 Headers({"Content-Type": "text/plain", "Content-Length": str(len(body))}),
                                 body)
             request = dataclasses.replace(request, path=policy.strip_token(request.path))
+            if on_request is not None:
+                on_request(request.path, request.headers)
             return process_request(connection, request) if process_request else None
         return original(*args, process_request=checked, **kwargs)
 

@@ -21,6 +21,7 @@ import viser
 
 from app.core.robot import RobotModel, list_robot_names, load_robot, robot_path
 from app.viewer.guard import HandshakePolicy, guard_widget_updates, handshake_checked, widget_name
+from app.viewer import url_state
 from app.viewer.panel_api import PanelRegistry
 from app.viewer.session import Session
 from app.viewer.worker import FairSlots, WorkerPool
@@ -98,7 +99,8 @@ class LabServer:
         self.workers = WorkerPool(self.max_jobs)     # heavy jobs' processes (app/viewer/worker.py)
         self.checks = WorkerPool(1)                  # the pinocchio badges' cross-checks
         self.policy = HandshakePolicy(host)
-        with self._quiet(), handshake_checked(self.policy):
+        self.page_requests = url_state.PageRequests()    # a new tab's address before it reports it
+        with self._quiet(), handshake_checked(self.policy, self.page_requests.note):
             self.viser = viser.ViserServer(host=host, port=port, label="Robotics II Lab", verbose=verbose)
         guard_widget_updates(self.viser.gui, lambda handle, reason: None)
         self.viser.on_client_connect(self._connect)

@@ -67,6 +67,7 @@ class Session:
         self._url_serial = 0
         self._reselect_tab = False              # the tab group was rebuilt: select url["tab"] again
         self._started = threading.Event()       # the first robot was asked for
+        self._guessed: Optional[str] = None     # the address the first robot is loaded from, until the page confirms it
         self._font_sent = False                 # the math font's <style> is in the page
         self.drawn = threading.Event()          # the page reported it has drawn the tab's first robot
         self._lock = threading.RLock()
@@ -209,7 +210,8 @@ class Session:
         gui = self.gui
         # first of all, the field through which the page reports its address: the first robot waits on it
         self._report = gui.add_text(url_state.BRIDGE_LABEL, "", order=ORDER_STYLE + 0.1)
-        self._url_writer = gui.add_html(url_state.bridge_html(), order=ORDER_STYLE + 0.2)
+        gui.add_html(url_state.bridge_html(), order=ORDER_STYLE + 0.15)   # kept: the first robot may
+        self._url_writer = gui.add_html("", order=ORDER_STYLE + 0.2)       # rewrite the address at once
         self._probe = gui.add_html("", order=ORDER_STYLE + 0.25)
         gui.configure_theme(control_width="large", show_logo=False, show_share_button=False,
                             brand_color=(46, 94, 170))
@@ -241,6 +243,15 @@ class Session:
             self.notify("A panel failed to load", err.splitlines()[0], error=True)
         # listen to the page's reports only now that everything they use is here; a report that
         # came before (a fast client: the field exists in the page since add_text) is read here
+        # the address of the page load this tab most likely comes from: its robot need not wait
+        # for the page's report, which confirms it or corrects it (_page_report); queued first, so
+        # that it is the first pick
+        pages = getattr(self.lab, "page_requests", None)
+        guess = pages.take() if pages is not None else None
+        if guess is not None:
+            with self._lock:
+                self._guessed = guess
+            self._queue_report(f"guess {guess}")
         self._report.on_update(self._page_reported)
         if self._report.value:
             self._queue_report(self._report.value)
@@ -265,7 +276,8 @@ class Session:
                 return
             # the address's robot counts as picked when the address arrived: a robot the student
             # picks afterwards (handled in another thread, maybe first) is the later pick and wins
-            pick = self._take_pick() if value.startswith("url ") and not self._started.is_set() else None
+            first = value.startswith("guess ") or (value.startswith("url ") and self._guessed is None)
+            pick = self._take_pick() if first and not self._started.is_set() else None
             if self._reports is None:
                 self._reports = ThreadPoolExecutor(max_workers=1, thread_name_prefix=f"reports{self.tab_id}")
             self._reports.submit(self._guarded, "the page's report", self._page_report, value, pick)
@@ -279,8 +291,16 @@ class Session:
 
     def _page_report(self, value: str, pick: Optional[int] = None) -> None:
         kind, _, text = value.partition(" ")
-        if kind == "url":
+        if kind == "guess":
             self._start(text, pick)
+        elif kind == "url":
+            with self._lock:
+                guessed, self._guessed = self._guessed, None
+                wrong = guessed is not None and self._address(guessed) != self._address(text)
+                if wrong:                       # the guess was another tab's page load
+                    self._started.clear()
+            if guessed is None or wrong:
+                self._start(text, pick)
         elif kind == "drawn":
             self.drawn.set()
         elif kind == "tab":
@@ -295,6 +315,13 @@ class Session:
                     # up while the first panels (holding the build lock) wait for it
                     threading.Thread(target=self._guarded, args=(f"the {name} tab", self.open_panel, name),
                                      daemon=True, name=f"open-{name}-{self.tab_id}").start()
+
+    def _address(self, search: str) -> Dict[str, str]:
+        """What an address asks for, the default robot filled in: ``""`` and ``?robot=DEFAULT``
+        ask for the same page."""
+        wanted = url_state.parse_query(search)
+        wanted.setdefault("robot", self.lab.initial_robot)
+        return wanted
 
     def _start(self, search: str, pick: Optional[int] = None) -> None:
         """Load the first robot: the address's (``?robot=...&tab=...``) or the default one; an

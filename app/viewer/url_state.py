@@ -20,7 +20,9 @@ from __future__ import annotations
 import html
 import json
 import re
-from typing import Dict, Mapping, Optional
+import threading
+import time
+from typing import Dict, List, Mapping, Optional, Tuple
 from urllib.parse import parse_qsl, urlencode
 
 KEYS = ("robot", "tab", "exercise", "step", "throw")
@@ -37,6 +39,50 @@ def parse_query(search: str) -> Dict[str, str]:
     return out
 
 
+class PageRequests:
+    """The addresses of the page loads the server answered lately, so that a new tab's first robot
+    need not wait for the page's own report (0.3 s after it connects; the websocket's address
+    carries no query). A tab takes the oldest recent load when every recent load had the same
+    address; otherwise (two tabs opening different links at once) it waits for its report as
+    before. A guess can be wrong (an old tab reconnecting while a new one loads): the page's report
+    then corrects it (``Session``).
+
+    >>> pages = PageRequests()
+    >>> pages.note("/?robot=planar_2r&tab=model", {}); pages.take()
+    '?robot=planar_2r&tab=model'
+    >>> pages.take() is None        # taken: the next tab waits for its report
+    True
+    """
+
+    def __init__(self, window: float = 5.0):
+        self.window = window               # s: a page connects well within this after its load
+        self._loads: List[Tuple[float, str]] = []
+        self._lock = threading.Lock()
+
+    def note(self, path: str, headers) -> None:
+        """A request the server let in (``path`` without the token): a page load is remembered."""
+        if str(headers.get("Upgrade", "")).lower() == "websocket":
+            return
+        where, _, query = path.partition("?")
+        if where not in ("", "/"):
+            return
+        with self._lock:
+            self._forget_old()
+            self._loads.append((time.monotonic(), "?" + query if query else ""))
+
+    def take(self) -> Optional[str]:
+        """The address (``?robot=...`` or "") of a recent page load, when unambiguous."""
+        with self._lock:
+            self._forget_old()
+            if not self._loads or len({query for _, query in self._loads}) > 1:
+                return None
+            return self._loads.pop(0)[1]
+
+    def _forget_old(self) -> None:
+        now = time.monotonic()
+        self._loads = [(t, q) for t, q in self._loads if now - t < self.window]
+
+
 def query_string(state: Mapping[str, Optional[str]]) -> str:
     """``?key=value&...`` of the keys set in ``state``, in the order of KEYS."""
     items = [(k, str(state[k]).replace("#", "_")) for k in KEYS if state.get(k) not in (None, "")]
@@ -50,15 +96,22 @@ def _handler(js: str) -> str:
 
 def bridge_html() -> str:
     """Reports ``location.search`` now, and the title of every panel tab clicked later, as
-    ``url <search>`` and ``tab <title>`` through the hidden field."""
+    ``url <search>`` and ``tab <title>`` through the hidden field. Drawn again (a new session after
+    the server restarted, or the widget redrawn), it reports again: one queue for the page."""
     label = json.dumps(BRIDGE_LABEL)
     js = ("(function(){"
           "function field(){const l=[...document.querySelectorAll('label')].find(e=>e.textContent.trim()===" + label + ");"
           "if(!l)return null;const row=l.closest('.mantine-Flex-root');if(!row)return null;row.style.display='none';"
           "return row.querySelector('input');}"
-          "function report(text,n){const i=field();if(!i){if(n>0)setTimeout(()=>report(text,n-1),100);return;}"
-                    "Object.getOwnPropertyDescriptor(HTMLInputElement.prototype,'value').set.call(i,text);"
-          "i.dispatchEvent(new Event('input',{bubbles:true}));}"
+          # one report at a time, 80 ms apart: the page sends a field's changes at most every 50 ms,
+          # the last one only, so two reports written at once (the address and "drawn") lost one
+          "const Q=window.__r2queue=window.__r2queue||{jobs:[],busy:false};"
+          "function pump(){if(Q.busy||!Q.jobs.length)return;Q.busy=true;const [text,n]=Q.jobs.shift();"
+          "(function attempt(k){const i=field();"
+          "if(!i){if(k>0)setTimeout(()=>attempt(k-1),100);else{Q.busy=false;pump();}return;}"
+          "Object.getOwnPropertyDescriptor(HTMLInputElement.prototype,'value').set.call(i,text);"
+          "i.dispatchEvent(new Event('input',{bubbles:true}));setTimeout(()=>{Q.busy=false;pump();},80);})(n);}"
+          "function report(text,n){Q.jobs.push([text,n]);pump();}"
           "window.__r2report=report;"
           "function selected(){const l=document.querySelector('[role=tablist]');"
           "const t=l&&l.querySelector('[role=tab][aria-selected=true]');if(t)report('tab '+t.textContent.trim(),20);}"
