@@ -65,6 +65,25 @@ def test_the_page_report_corrects_a_wrong_guess(fresh_lab):
         client.close()
 
 
+def test_a_robot_the_student_picked_is_not_undone_by_a_late_report(fresh_lab):
+    from app.core.robot import load_robot
+    _load_page(fresh_lab, "?robot=rp_2004_03_25")
+    before = set(fresh_lab.sessions)
+    client = Client(fresh_lab.viser.get_port(), None)
+    try:
+        session = _session(fresh_lab, before)
+        wait_for(lambda: session.robot_name == "rp_2004_03_25" and session.ready.is_set(), 10, "rp_2004_03_25")
+        picker = client.wait_widget("Robot", 60)
+        title = load_robot("planar_2r").title
+        client.update(picker, next(o for o in picker["props"]["options"] if title in o))
+        wait_for(lambda: session.robot_name == "planar_2r" and session.ready.is_set(), 30, "planar_2r")
+        client.update(client.report, "url ?robot=planar_pr")     # the page's report, very late
+        time.sleep(1.5)
+        assert session.robot_name == "planar_2r"
+    finally:
+        client.close()
+
+
 def test_page_loads_make_a_guess_only_when_they_agree():
     pages = PageRequests()
     pages.note("/?robot=a", {"Upgrade": "websocket"})            # a websocket is not a page load

@@ -68,6 +68,7 @@ class Session:
         self._reselect_tab = False              # the tab group was rebuilt: select url["tab"] again
         self._started = threading.Event()       # the first robot was asked for
         self._guessed: Optional[str] = None     # the address the first robot is loaded from, until the page confirms it
+        self._first_pick = 0                    # the pick number of the first robot (_start)
         self._font_sent = False                 # the math font's <style> is in the page
         self.drawn = threading.Event()          # the page reported it has drawn the tab's first robot
         self._lock = threading.RLock()
@@ -241,8 +242,6 @@ class Session:
         self._panel_specs = list(registry.specs)
         for err in registry.errors:
             self.notify("A panel failed to load", err.splitlines()[0], error=True)
-        # listen to the page's reports only now that everything they use is here; a report that
-        # came before (a fast client: the field exists in the page since add_text) is read here
         # the address of the page load this tab most likely comes from: its robot need not wait
         # for the page's report, which confirms it or corrects it (_page_report); queued first, so
         # that it is the first pick
@@ -252,6 +251,8 @@ class Session:
             with self._lock:
                 self._guessed = guess
             self._queue_report(f"guess {guess}")
+        # listen to the page's reports only now that everything they use is here; a report that
+        # came before (a fast client: the field exists in the page since add_text) is read here
         self._report.on_update(self._page_reported)
         if self._report.value:
             self._queue_report(self._report.value)
@@ -296,8 +297,10 @@ class Session:
         elif kind == "url":
             with self._lock:
                 guessed, self._guessed = self._guessed, None
-                wrong = guessed is not None and self._address(guessed) != self._address(text)
-                if wrong:                       # the guess was another tab's page load
+                # the guess was another tab's page load (unless the student picked a robot since)
+                wrong = (guessed is not None and self._address(guessed) != self._address(text)
+                         and self._picks == self._first_pick)
+                if wrong:
                     self._started.clear()
             if guessed is None or wrong:
                 self._start(text, pick)
@@ -330,6 +333,7 @@ class Session:
             if self._started.is_set() or self.closed:
                 return
             self._started.set()
+            self._first_pick = pick if pick is not None else self._picks
         wanted = url_state.parse_query(search)
         names = {i.name for i in self._catalog}
         problems = [f"{k}={v}" for k, v in wanted.items() if not url_state.safe(v)]
