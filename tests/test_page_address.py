@@ -8,17 +8,9 @@ import urllib.request
 import pytest
 
 from app.commands.serve import lab_server
+from app.viewer.screenshot import wait_until as wait_for
 from app.viewer.url_state import PageRequests
 from benchmarks.load import Client
-
-
-def wait_for(condition, timeout, what):
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if condition():
-            return
-        time.sleep(0.05)
-    raise AssertionError(f"timed out waiting for {what}")
 
 
 @pytest.fixture()
