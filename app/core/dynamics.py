@@ -167,10 +167,6 @@ class Dynamics:
 LONG_ENTRY = 200
 
 
-def _term_count(tp: TrigPoly) -> int:
-    return sum(len(sp.Add.make_args(coeff)) for coeff in tp.terms.values())
-
-
 def _highlight(value) -> Dict[str, List[str]]:
     return {as_text(k): as_texts(v) for k, v in as_mapping(value).items()}
 
@@ -322,7 +318,6 @@ class _Deriver:
         energies = self._body_energies()
         M_tp, kinetic, potential = energies["M_tp"], energies["kinetic"], energies["potential"]
         self._motor_energies(M_tp, kinetic)
-        M_tp = [[e.expand() for e in row] for row in M_tp]
         self.progress(0.5, "inertia matrix")
         M = self.MX(M_tp)
         self.step("Inertia matrix", rf"M(q) = {self.L(M)}",
@@ -359,7 +354,7 @@ class _Deriver:
         omegas, kinetic, potential (per body), M_tp and U_tp."""
         robot, n = self.robot, self.n
         positions, velocities, omegas, kinetic, potential = {}, {}, {}, {}, {}
-        shares = [[[] for _ in range(n)] for _ in range(n)]     # each body's share of each entry of M
+        shares = [[[] for _ in range(n)] for _ in range(n)]     # each body's share of M[j][k], k >= j
         U_tp = TrigPoly()
         dq = sp.Matrix(self.dq)
         gvec = robot.gravity
@@ -375,7 +370,7 @@ class _Deriver:
             Mi = self._body_inertia(body, Jv, Jw)
             kinetic[body.name] = self.quadratic_form(Mi)
             for j in range(n):
-                for k in range(n):
+                for k in range(j, n):
                     shares[j][k].append(Mi[j][k])
             Ui = TrigPoly()
             if body.mass != 0 and any(e != 0 for e in gvec):
@@ -383,8 +378,10 @@ class _Deriver:
             potential[body.name] = self.X(Ui)
             U_tp = U_tp + Ui
             self._body_steps(body.name, p, v, w, kinetic[body.name])
-        M_tp = [[TrigPoly.sum(shares[j][k]) if k >= j else None for k in range(n)] for j in range(n)]
-        M_tp = [[M_tp[j][k] if k >= j else M_tp[k][j] for k in range(n)] for j in range(n)]
+        M_tp = [[None] * n for _ in range(n)]
+        for j in range(n):
+            for k in range(j, n):
+                M_tp[j][k] = M_tp[k][j] = TrigPoly.sum(shares[j][k])
         return {"positions": positions, "velocities": velocities, "omegas": omegas, "kinetic": kinetic,
                 "potential": potential, "M_tp": M_tp, "U_tp": U_tp}
 
@@ -428,7 +425,7 @@ class _Deriver:
         dq = sp.Matrix(self.dq)
         for cname, inertia in self.robot.motor_inertias.items():
             k = self.robot.coordinates.index(cname)
-            M_tp[k][k] = M_tp[k][k] + TrigPoly.constant(inertia)
+            M_tp[k][k] = TrigPoly.sum([M_tp[k][k], TrigPoly.constant(inertia)])
             kinetic[f"motor {cname}"] = inertia * dq[k] ** 2 / 2
             self.step(f"Kinetic energy of the motor on {cname}",
                       rf"T_{{m}} = {self.L(kinetic[f'motor {cname}'])}",
@@ -474,7 +471,7 @@ class _Deriver:
                       joints=[robot.bodies[min(i, len(robot.bodies) - 1)].name])
         C_tp = [[TrigPoly.sum(parts) for parts in row] for row in C_parts]
         c_tp = [TrigPoly.sum(C_tp[i][j].scale(dq[j]) for j in range(n)) for i in range(n)]
-        longest = max(_term_count(e) for e in c_tp)
+        longest = max(e.term_count() for e in c_tp)
         skew = r"Built from the Christoffel symbols, so that $\dot M - 2C$ is skew-symmetric."
         if longest <= LONG_ENTRY:
             C = self.MX(C_tp)

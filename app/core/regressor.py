@@ -83,7 +83,7 @@ def _trig_value(tp: TrigPoly, env, memo, npts: int) -> np.ndarray:
 
 
 def _complexity(vec: List[TrigPoly]) -> Tuple[int, int]:
-    terms = sum(len(sp.Add.make_args(c)) for tp in vec for c in tp.terms.values())
+    terms = sum(tp.term_count() for tp in vec)
     return (terms, sum(sp.count_ops(c) for tp in vec for c in tp.terms.values()))
 
 

@@ -428,6 +428,10 @@ class TrigPoly:
     def items(self):
         return self.terms.items()
 
+    def term_count(self) -> int:
+        """Terms written out: the terms of every coefficient, over all basis functions."""
+        return sum(len(sp.Add.make_args(coeff)) for coeff in self.terms.values())
+
     def to_expr(self, factor_coefficients: bool = False) -> sp.Expr:
         """Back to a sympy expression, one term per basis function."""
         out = []
