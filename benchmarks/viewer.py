@@ -225,8 +225,8 @@ def _cpu_since(lab, before: dict) -> float:
 
 def _switch(page, session, name) -> tuple:
     """(wall, CPU of the server: this process and its workers) from ``load_robot`` until the
-    browser shows the robot ready (the frame after the ready marker, timed in the page: READY_JS)."""
-    page.evaluate(READY_JS)                     # once per page (it returns at once when installed)
+    browser shows the robot ready (the frame after the ready marker, timed in the page: READY_JS,
+    installed in ``page`` by ``switching``)."""
     t0, c0 = time.time(), _server_cpu(session.lab)
     threading.Thread(target=session.load_robot, args=(name,), daemon=True).start()
     page.wait_for_selector(f'.r2-status[data-ready="1"][data-robot="{name}"]', state="attached", timeout=300000)
@@ -265,6 +265,7 @@ def switching(browser, robots=SWITCH):
             try:
                 page = browser.page(lab.url + "?robot=planar_2r")
                 wait_ready(page, "planar_2r")
+                page.evaluate(READY_JS)
                 session = new_session(lab, page)
                 for name in robots:                   # warm the disk caches the page itself fills
                     _switch(page, session, name)

@@ -68,7 +68,7 @@ class Session:
         self._reselect_tab = False              # the tab group was rebuilt: select url["tab"] again
         self._started = threading.Event()       # the first robot was asked for
         self._guessed: Optional[str] = None     # the address the first robot is loaded from, until the page confirms it
-        self._first_pick = 0                    # the pick number of the first robot (_start)
+        self._first_pick = 0                    # the pick number of the guessed first robot
         self._font_sent = False                 # the math font's <style> is in the page
         self.drawn = threading.Event()          # the page reported it has drawn the tab's first robot
         self._lock = threading.RLock()
@@ -293,6 +293,8 @@ class Session:
     def _page_report(self, value: str, pick: Optional[int] = None) -> None:
         kind, _, text = value.partition(" ")
         if kind == "guess":
+            with self._lock:
+                self._first_pick = pick
             self._start(text, pick)
         elif kind == "url":
             with self._lock:
@@ -323,8 +325,15 @@ class Session:
         """What an address asks for, the default robot filled in: ``""`` and ``?robot=DEFAULT``
         ask for the same page."""
         wanted = url_state.parse_query(search)
-        wanted.setdefault("robot", self.lab.initial_robot)
+        wanted.setdefault("robot", self._default_robot())
         return wanted
+
+    def _default_robot(self) -> str:
+        """The robot of an address that names none (or an unknown one): the server's ``--robot``
+        (a shipped robot or a file), else the first of the catalog."""
+        initial = self.lab.initial_robot
+        names = {i.name for i in self._catalog}
+        return initial if initial in names or Path(initial).is_file() else self._catalog[0].name
 
     def _start(self, search: str, pick: Optional[int] = None) -> None:
         """Load the first robot: the address's (``?robot=...&tab=...``) or the default one; an
@@ -333,7 +342,6 @@ class Session:
             if self._started.is_set() or self.closed:
                 return
             self._started.set()
-            self._first_pick = pick if pick is not None else self._picks
         wanted = url_state.parse_query(search)
         names = {i.name for i in self._catalog}
         problems = [f"{k}={v}" for k, v in wanted.items() if not url_state.safe(v)]
@@ -342,8 +350,7 @@ class Session:
         if robot is not None and robot not in names:
             problems.append(f"robot={robot} (no such robot)")
             robot, wanted = None, {}
-        initial = self.lab.initial_robot           # a shipped robot, or a file (serve --robot FILE)
-        default = initial if initial in names or Path(initial).is_file() else self._catalog[0].name
+        default = self._default_robot()
         with self._lock:
             self._url_pending = wanted
         if problems:
