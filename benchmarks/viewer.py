@@ -16,7 +16,9 @@ time (a busy machine inflates wall time much more than CPU time).
   ready marker names the robot, timed in the page; Playwright's wait for the marker, which
   answered 0.1-0.25 s later, only confirms it), for every robot of ``SWITCH`` (both arms
   among them; ``--all-robots``: every shipped robot): first after a restart (derived before: the
-  disk caches are filled, the process's memory caches empty), then again (memory). CPU: the
+  disk caches are filled, the process's memory caches empty) before the server's idle warm-up
+  reached the robot, then once the warm-up (``LabServer.warm_up(every_robot=True)``, what ``serve``
+  starts) is done, then again (memory); the warm-up's own time and CPU beside. CPU: the
   benchmark process's, which holds the server, and its worker processes' (the browser's own work
   is not in it). Cold: empty
   memory and disk caches (derivation, compilation and drawing from scratch).
@@ -234,7 +236,7 @@ def _switch(page, session, name) -> tuple:
     return _ready_at(page, name, session.generation) - t0, cpu
 
 
-def _forget_memory(lab) -> None:
+def forget_memory(lab) -> None:
     """Empty the process's caches of models, compiled functions, drawings and typeset formulas
     (what a restarted server has); the disk cache stays."""
     import app.core.dynamics as dynamics
@@ -249,13 +251,16 @@ def _forget_memory(lab) -> None:
     lab._robots.clear()
 
 
-def switching(browser, robots=SWITCH):
-    """Per robot: (first switch after a restart, switch again), each (wall, CPU); and cold switches."""
+def switching(browser, robots=SWITCH) -> dict:
+    """Per robot, (wall, CPU) of: the first switch after a restart before the idle warm-up reached
+    it ("early"), the first after a restart once the warm-up is done ("warmed"), a switch again
+    ("again"), and cold switches ("cold"); "warm-up": the warm-up's (wall, CPU) from the page being
+    ready until every robot is warmed."""
     from app.viewer.screenshot import new_session, wait_ready
     from app.core.dynamics import derive
     from app.core.robot import load_robot
     saved = os.environ.get("R2LAB_CACHE")
-    first, again, cold = {}, {}, {}
+    out = {"early": {}, "warmed": {}, "again": {}, "cold": {}}
     try:
         with tempfile.TemporaryDirectory(prefix="r2lab-viewer-") as cache:
             os.environ["R2LAB_CACHE"] = cache
@@ -269,16 +274,23 @@ def switching(browser, robots=SWITCH):
                 session = new_session(lab, page)
                 for name in robots:                   # warm the disk caches the page itself fills
                     _switch(page, session, name)
-                _forget_memory(lab)
+                forget_memory(lab)
                 for name in robots:
-                    first[name] = _switch(page, session, name)
+                    out["early"][name] = _switch(page, session, name)
+                forget_memory(lab)
+                t0, c0 = time.time(), _server_cpu(lab)
+                lab.warm_up(every_robot=True)         # what ``serve`` starts
+                lab.warmed.wait(600)
+                out["warm-up"] = (time.time() - t0, _cpu_since(lab, c0))
                 for name in robots:
-                    again[name] = _switch(page, session, name)
+                    out["warmed"][name] = _switch(page, session, name)
+                for name in robots:
+                    out["again"][name] = _switch(page, session, name)
                 for name in COLD:
                     with tempfile.TemporaryDirectory() as tmp:
                         os.environ["R2LAB_CACHE"] = tmp           # an empty disk cache
-                        _forget_memory(lab)
-                        cold[name] = _switch(page, session, name)
+                        forget_memory(lab)
+                        out["cold"][name] = _switch(page, session, name)
                         _switch(page, session, "planar_2r")
                     os.environ["R2LAB_CACHE"] = cache
                 page.context.close()
@@ -289,7 +301,7 @@ def switching(browser, robots=SWITCH):
             os.environ.pop("R2LAB_CACHE", None)
         else:
             os.environ["R2LAB_CACHE"] = saved
-    return first, again, cold
+    return out
 
 
 def drag(browser, seconds=3.0):
@@ -384,7 +396,7 @@ def figures(browser=None, robots=SWITCH, repeats: int = 3) -> list:
     browser = browser or Browser()
     try:
         start = first_frame(browser, repeats)
-        first, again, _ = switching(browser, robots)
+        switches = switching(browser, robots)
     finally:
         if own:
             browser.close()
@@ -395,9 +407,12 @@ def figures(browser=None, robots=SWITCH, repeats: int = 3) -> list:
             f"viser's minimal app {base['frame']:.2f} s"),
            ("page: ready after server up", lab["ready"], lab["cpu"] - lab["up cpu"], GOAL_READY, "")]
     for name in robots:
-        out.append((f"switch to {name}, first after restart", *first[name], GOAL_SWITCH, "disk caches"))
+        out.append((f"switch to {name}, first after restart", *switches["warmed"][name], GOAL_SWITCH,
+                    f"before the idle warm-up {switches['early'][name][0]:.2f} s"))
+    again = switches["again"]
     worst = max(robots, key=lambda n: again[n][0])
     out.append((f"switch again, slowest ({worst})", *again[worst], GOAL_SWITCH, "memory caches"))
+    out.append(("page: idle warm-up of every robot", *switches["warm-up"], None, "from the page being ready"))
     return out
 
 
@@ -423,15 +438,19 @@ def main(argv=None):
         print(f"  {'first frame after server up':<38}{lab['frame']:>6.2f}{'':>8}{base['frame']:>11.2f}{'':>10}{GOAL_FRAME:>6.1f}")
         print(f"  {'ready (panels built) after server up':<38}{lab['ready']:>6.2f} /{lab['cpu'] - lab['up cpu']:>5.2f} CPU"
               f"{'':>20}{GOAL_READY:>6.1f}")
-        first, again, cold = switching(browser, robots)
+        switches = switching(browser, robots)
         print("switch robots, until the new robot and its panels are in the browser (wall s / CPU s of the "
-              f"server's process and its workers; goal {GOAL_SWITCH} s)")
-        print(f"  {'robot':<34}{'first after restart':>22}{'again':>18}")
+              f"server's process and its workers; goal {GOAL_SWITCH} s). First after a restart: before the "
+              "server's idle warm-up reached the robot, and once it is done")
+        print(f"  {'robot':<34}{'first, before warm-up':>22}{'first, warmed':>18}{'again':>18}")
         for name in robots:
-            (w1, c1), (w2, c2) = first[name], again[name]
-            print(f"  {name:<34}{w1:>12.2f} /{c1:>5.2f} CPU{w2:>8.2f} /{c2:>5.2f} CPU")
-        for name, (w, c) in cold.items():
+            cells = [switches[kind][name] for kind in ("early", "warmed", "again")]
+            print(f"  {name:<34}" + "".join(f"{w:>{12 if k == 0 else 8}.2f} /{c:>5.2f} CPU"
+                                            for k, (w, c) in enumerate(cells)))
+        for name, (w, c) in switches["cold"].items():
             print(f"  cold {name:<29}{w:>12.2f} /{c:>5.2f} CPU")
+        w, c = switches["warm-up"]
+        print(f"  idle warm-up of every robot (from the page being ready): {w:.1f} s / {c:.1f} CPU")
         if not args.no_drag:
             rates = drag(browser)
             print("dragging the q1 slider for 3 s")

@@ -129,6 +129,43 @@ def test_model_tab_never_shows_the_previous_robots_matrices(module_tab, monkeypa
     assert page.locator('.r2-model[data-robot="rp_2004_03_25"]').count() == 1
 
 
+def test_a_switch_to_a_warmed_robot_compiles_reads_and_typesets_nothing(module_tab, lab, monkeypatch):
+    """Issue 16: the server warms robots at idle (``LabServer.warm_robot``): a first switch to one
+    after a restart then reads nothing from the disk cache, compiles no function, draws and typesets
+    nothing; a robot not warmed does all of that (which shows the counters see it)."""
+    import app.core.model_cache as model_cache
+    import app.core.numeric.model as numeric_model
+    import app.scene as scene
+    import app.viewer.mathml as mathml
+    from app.core.dynamics import derive
+    from app.core.robot import load_robot
+    from benchmarks.viewer import forget_memory
+    page, session = module_tab("planar_2r", "Model", hide=False)
+    warmed, cold = "spatial_3r_2017_03_29", "rp_2004_03_25"
+    for name in (warmed, cold):
+        derive(load_robot(name))                         # in the disk cache, as for a restarted server
+    forget_memory(lab)                                   # the memory caches of a restarted server
+    assert lab.warm_robot(warmed)
+    work = {"disk": 0, "compiled": 0, "drawn": 0, "typeset": 0}
+
+    def counted(kind, fn):
+        def wrapper(*args, **kwargs):
+            work[kind] += 1
+            return fn(*args, **kwargs)
+        return wrapper
+
+    monkeypatch.setattr(model_cache, "read_entry", counted("disk", model_cache.read_entry))
+    monkeypatch.setattr(numeric_model, "numeric_function", counted("compiled", numeric_model.numeric_function))
+    monkeypatch.setattr(scene.RobotDrawing, "_build", counted("drawn", scene.RobotDrawing._build))
+    monkeypatch.setattr(mathml, "blocks_html", counted("typeset", mathml.blocks_html))
+    pick(page, session, warmed)
+    assert page.locator(f'.r2-model[data-robot="{warmed}"]').count() == 1
+    assert work == {"disk": 0, "compiled": 0, "drawn": 0, "typeset": 0}
+    pick(page, session, cold)
+    assert page.locator(f'.r2-model[data-robot="{cold}"]').count() == 1
+    assert work["disk"] > 0 and work["compiled"] > 0 and work["drawn"] == 1, work
+
+
 def built_panels(page) -> dict:
     """Panel name -> generation of every panel built in the page (its end marker)."""
     return page.evaluate("() => Object.fromEntries([...document.querySelectorAll('.r2-panel')]"

@@ -39,3 +39,35 @@ def test_the_server_warms_up_the_catalog_in_the_background(lab):
     lab.warm_up(lambda: extras.append("done")).join(60)
     assert extras == ["done"]
     assert {entry.name for entry in lab.catalog()} == set(list_robot_names())
+
+
+def test_the_warm_up_of_every_robot_waits_for_an_idle_server(monkeypatch):
+    """``warm_up(every_robot=True)`` (what ``serve`` starts) warms every robot of the picker, the
+    largest first, only while no tab is loading a robot and none asked for one in the last
+    IDLE_QUIET seconds."""
+    import threading
+    import time
+    from types import SimpleNamespace
+
+    import app.viewer.server as server
+    monkeypatch.setattr(server, "IDLE_QUIET", 0.3)
+    lab = server.LabServer(port=0, verbose=False)
+    try:
+        warmed = []
+        monkeypatch.setattr(lab, "warm_robot", lambda name: warmed.append((name, time.monotonic())))
+        loading = SimpleNamespace(ready=threading.Event(), closed=False)     # a tab building its panels
+        lab.sessions[1] = loading
+        lab.warm_up(every_robot=True)
+        time.sleep(1.0)
+        assert warmed == []
+        lab.note_load()                                  # the tab asked for a robot: then it is ready
+        asked = time.monotonic()
+        loading.ready.set()
+        assert lab.warmed.wait(30)
+        dof = {info.name: info.dof for info in lab.catalog()}
+        assert sorted(name for name, _ in warmed) == sorted(dof)
+        assert [dof[name] for name, _ in warmed] == sorted(dof.values(), reverse=True)
+        assert warmed[0][1] - asked >= 0.3
+    finally:
+        lab.sessions.clear()
+        lab.stop()

@@ -25,7 +25,8 @@ def run(args) -> int:
 
     sys.setswitchinterval(SWITCH_INTERVAL)
     lab = lab_server(host=args.host, port=args.port, robot=args.robot)
-    lab.warm_up(shipped_exercises)       # the picker's and the Exercises tab's lists, the first robot
+    # the picker's and the Exercises tab's lists, the first robot; then, at idle, every other one
+    lab.warm_up(shipped_exercises, every_robot=True)
     print(f"Robotics II Lab: open {lab.url} in a browser (Ctrl+C stops)", flush=True)
     if lab.policy.token:
         print(f"Other machines: http://<this machine's address>:{lab.viser.get_port()}/{lab.policy.token}/ "

@@ -2,10 +2,12 @@
 
 A panel module defines ``TITLE`` (the tab label), ``ORDER`` (tabs sorted by it) and
 ``build(session)``, which adds the panel's GUI (it runs inside the tab's container). Optional:
-``available(robot) -> bool`` (the tab appears only for robots where it is true) and
+``available(robot) -> bool`` (the tab appears only for robots where it is true),
 ``REBUILD = False`` (the panel is built once per browser tab instead of after every robot switch;
-it then follows robot changes through ``session.on_robot_change``). Modules whose name starts
-with ``_`` are skipped. docs/panels.md explains the session a panel receives (``PanelSession``
+it then follows robot changes through ``session.on_robot_change``) and ``warm(robot, dynamics)``
+(what ``build`` computes that outlives the tab, such as compiled functions and typeset formulas,
+done ahead while the server is idle, so that a switch to that robot finds it ready). Modules
+whose name starts with ``_`` are skipped. docs/panels.md explains the session a panel receives (``PanelSession``
 of app/viewer/panel_api.py). The viewer never imports this package: whoever starts a server
 passes it ``registry()``.
 
@@ -39,7 +41,8 @@ def registry() -> PanelRegistry:
         if not (hasattr(mod, "TITLE") and hasattr(mod, "build")):
             continue
         specs.append(PanelSpec(info.name, str(mod.TITLE), float(getattr(mod, "ORDER", 50)), mod.build,
-                               getattr(mod, "available", None), bool(getattr(mod, "REBUILD", True))))
+                               getattr(mod, "available", None), bool(getattr(mod, "REBUILD", True)),
+                               getattr(mod, "warm", None)))
     specs.sort(key=lambda s: (s.order, s.title))
     return PanelRegistry(tuple(specs), tuple(errors))
 

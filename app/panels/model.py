@@ -2,13 +2,13 @@
 linear parametrization, typeset, each with its numeric value at the current q, q' and parameters."""
 from __future__ import annotations
 
-from typing import Callable, Dict, List, Tuple
+from typing import Callable, Dict, List, NamedTuple, Tuple
 
 import numpy as np
 import sympy as sp
 
 from app.core.answer_check import check_model_entry, model_entries
-from app.core.numeric import compiled_model
+from app.core.numeric import NumericModel, compiled_model
 from app.core.steps import shorthand_is_clear
 from app.core.tex import model_tex
 from app.viewer import AnswerBox, html_cache, mathml
@@ -30,6 +30,80 @@ def _cached(key: tuple, make: Callable[[], str]) -> str:
     return html
 
 
+class Section(NamedTuple):
+    """A folder of the Model tab: its typeset term (``blocks()``: LaTeX blocks), the name of its
+    live value (a key of ``build``'s values; "" for none), whether it starts open, a note above."""
+    title: str
+    blocks: Callable[[], List[str]]
+    value: str = ""
+    expanded: bool = True
+    note: str = ""
+
+
+def _sections(robot, dyn, width: Callable[[], float], short: bool) -> List[Section]:
+    """The Model tab's folders, laid out for ``width()`` em (read when typeset: presenter mode
+    lays them out again)."""
+    coords = list(robot.coordinates)
+
+    def blocks(name, matrix, entry, symmetric=False):
+        return mathml.matrix_latex_blocks(name, matrix, coords, entry, width_em=width(),
+                                          symmetric=symmetric, short_trig=short)
+
+    def christoffel():
+        out = []
+        for i, Ci in enumerate(dyn.christoffel):
+            out += blocks(f"C_{{{i + 1}}}(q)", Ci, f"c_{{{i + 1},#}}", symmetric=True)
+        return out
+
+    par = dyn.parametrization
+    known = ", ".join(par.known) or "none"
+    out = [Section("Inertia matrix M(q)", lambda: blocks("M(q)", dyn.M, "m", symmetric=True), "M"),
+           Section("Coriolis and centrifugal terms c(q, q̇)", lambda: blocks(r"c(q,\dot q)", dyn.c, "c"), "c"),
+           Section("Factorization C(q, q̇) (Christoffel)", lambda: blocks(r"C(q,\dot q)", dyn.C, "c"), "C", False,
+                   "c = C(q, q̇) q̇ with C from the Christoffel symbols: Ṁ − 2C is skew-symmetric."),
+           Section("Gravity g(q)", lambda: blocks("g(q)", dyn.g, "g"), "g")]
+    if any(e != 0 for e in dyn.spring):
+        out.append(Section("Springs k(q)", lambda: blocks("k(q)", dyn.spring, "k"), "k"))
+    if any(e != 0 for e in dyn.friction):
+        out.append(Section("Friction", lambda: blocks(r"\tau_f", dyn.friction, r"\tau_f"), r"\tau_f"))
+    out += [Section("Christoffel matrices", christoffel, "", False,
+                    "c_i = q̇ᵀ C_i(q) q̇, with C_i = ½ (∂m_i/∂q + (∂m_i/∂q)ᵀ − ∂M/∂q_i)."),
+            Section(f"Linear parametrization Y a ({par.count} coefficients)",
+                    lambda: blocks(r"Y(q,\dot q,\ddot q)", par.Y, "y") + blocks("a", sp.Matrix(par.a), "a"), "a",
+                    False, f"τ = Y a with a minimal set of dynamic coefficients (known data: {known})."),
+            Section("Adaptive regressor Y(q, q̇, q̇r, q̈r)", lambda: blocks(r"Y_r", par.Y_ref, "y"), "", False,
+                    "Y_r a = M q̈r + C(q, q̇) q̇r + g (+ springs, friction): the Slotine-Li regressor.")]
+    return out
+
+
+def _typeset(robot, title: str, make_blocks: Callable[[], List[str]], short: bool, width: float) -> str:
+    """A section's MathML, made once per robot file and layout (``_cached``)."""
+    return _cached((robot.content_hash, title, short, width), lambda: mathml.blocks_html(make_blocks()))
+
+
+def warm(robot, dyn) -> None:
+    """What building the tab for ``robot`` computes that outlives it, done ahead (the server calls
+    it at idle: app/viewer/server.py): the compiled functions of its live values and its typeset
+    sections in the default layout.
+
+    >>> from app.core.dynamics import derive
+    >>> from app.core.robot import load_robot
+    >>> robot = load_robot("planar_2r")
+    >>> warm(robot, derive(robot))
+    """
+    num = NumericModel(robot, dynamics=dyn)
+    q, dq = np.zeros(robot.n), np.ones(robot.n)
+    num.M(q), num.c(q, dq), num.g(q)
+    if any(e != 0 for e in dyn.spring):
+        num.spring(q)
+    if any(e != 0 for e in dyn.friction):
+        num.friction(dq)
+    compiled_model(robot, dyn).coefficients()
+    short = shorthand_is_clear(robot.parameters)
+    for spec in _sections(robot, dyn, lambda: mathml.PANEL_WIDTH_EM, short):
+        _typeset(robot, spec.title, spec.blocks, short, mathml.PANEL_WIDTH_EM)
+
+
 def build(session) -> None:
     gui = session.gui
     dyn, robot = session.dynamics, session.robot
@@ -44,26 +118,8 @@ def build(session) -> None:
     layout = {"width": presenter.math_width_em(mathml.PANEL_WIDTH_EM)}
     symbolic: List[Tuple[object, str, Callable[[], List[str]]]] = []
 
-    def blocks(name, matrix, entry, symmetric=False):
-        return mathml.matrix_latex_blocks(name, matrix, coords, entry, width_em=layout["width"],
-                                          symmetric=symmetric, short_trig=short)
-
     def typeset(title, make_blocks):
-        key = (robot.content_hash, title, short, layout["width"])
-        return _cached(key, lambda: mathml.blocks_html(make_blocks()))
-
-    def section(title, make_blocks, numeric=None, expanded=True, note=""):
-        """A folder with the typeset symbolic term (``make_blocks()`` gives its LaTeX blocks) and
-        a live numeric value."""
-        folder = gui.add_folder(title, expand_by_default=expanded)
-        with folder:
-            if note:
-                gui.add_html(mathml.label_html(note))
-            symbolic.append((gui.add_html(typeset(title, make_blocks)), title, make_blocks))
-            if numeric is not None:
-                handle = gui.add_html("")
-                updaters.append((handle, numeric))
-        return folder
+        return _typeset(robot, title, make_blocks, short, layout["width"])
 
     legend = (" Shorthand: c₁ = cos q₁, s₁₂ = sin(q₁ + q₂), and so on." if short and
               all(len(c) == 2 for c in coords) else "")
@@ -73,42 +129,20 @@ def build(session) -> None:
     _velocity_fields(gui, coords, dq_state, lambda: refresh())
 
     num = session.numeric
-
-    def value(name_latex, fn):
-        return lambda: mathml.math_html(f"{name_latex} = {mathml.numeric_latex(fn())}", css_class="r2-num")
-
-    section("Inertia matrix M(q)", lambda: blocks("M(q)", dyn.M, "m", symmetric=True),
-            value("M", lambda: num.M(session.q)))
-    section("Coriolis and centrifugal terms c(q, q̇)", lambda: blocks(r"c(q,\dot q)", dyn.c, "c"),
-            value("c", lambda: num.c(session.q, dq_state["dq"])))
-    section("Factorization C(q, q̇) (Christoffel)", lambda: blocks(r"C(q,\dot q)", dyn.C, "c"),
-            value("C", lambda: num.C(session.q, dq_state["dq"])), expanded=False,
-            note="c = C(q, q̇) q̇ with C from the Christoffel symbols: Ṁ − 2C is skew-symmetric.")
-    section("Gravity g(q)", lambda: blocks("g(q)", dyn.g, "g"), value("g", lambda: num.g(session.q)))
-    if any(e != 0 for e in dyn.spring):
-        section("Springs k(q)", lambda: blocks("k(q)", dyn.spring, "k"), value("k", lambda: num.spring(session.q)))
-    if any(e != 0 for e in dyn.friction):
-        section("Friction", lambda: blocks(r"\tau_f", dyn.friction, r"\tau_f"),
-                value(r"\tau_f", lambda: num.friction(dq_state["dq"])))
-    def christoffel():
-        out = []
-        for i, Ci in enumerate(dyn.christoffel):
-            out += blocks(f"C_{{{i + 1}}}(q)", Ci, f"c_{{{i + 1},#}}", symmetric=True)
-        return out
-
-    section("Christoffel matrices", christoffel, expanded=False,
-            note="c_i = q̇ᵀ C_i(q) q̇, with C_i = ½ (∂m_i/∂q + (∂m_i/∂q)ᵀ − ∂M/∂q_i).")
-
-    par = dyn.parametrization
-    a_vec = sp.Matrix(par.a)
     a_fn = compiled_model(robot, dyn).coefficients()
-    known = ", ".join(par.known) or "none"
-    section(f"Linear parametrization Y a ({par.count} coefficients)",
-            lambda: blocks(r"Y(q,\dot q,\ddot q)", par.Y, "y") + blocks("a", a_vec, "a"),
-            value("a", lambda: np.asarray(a_fn([session.params[k] for k in robot.parameters]), float).ravel()),
-            expanded=False, note=f"τ = Y a with a minimal set of dynamic coefficients (known data: {known}).")
-    section("Adaptive regressor Y(q, q̇, q̇r, q̈r)", lambda: blocks(r"Y_r", par.Y_ref, "y"), expanded=False,
-            note="Y_r a = M q̈r + C(q, q̇) q̇r + g (+ springs, friction): the Slotine-Li regressor.")
+    values = {"M": lambda: num.M(session.q), "c": lambda: num.c(session.q, dq_state["dq"]),
+              "C": lambda: num.C(session.q, dq_state["dq"]), "g": lambda: num.g(session.q),
+              "k": lambda: num.spring(session.q), r"\tau_f": lambda: num.friction(dq_state["dq"]),
+              "a": lambda: np.asarray(a_fn([session.params[k] for k in robot.parameters]), float).ravel()}
+
+    for spec in _sections(robot, dyn, lambda: layout["width"], short):
+        # a folder with the typeset symbolic term and its live value
+        with gui.add_folder(spec.title, expand_by_default=spec.expanded):
+            if spec.note:
+                gui.add_html(mathml.label_html(spec.note))
+            symbolic.append((gui.add_html(typeset(spec.title, spec.blocks)), spec.title, spec.blocks))
+            if spec.value:
+                updaters.append((gui.add_html(""), _live_value(spec.value, values[spec.value])))
 
     session.state["model_answer"] = AnswerBox(
         session, model_entries(robot, dyn),
@@ -125,6 +159,11 @@ def build(session) -> None:
     refresh()
     session.on_q_change(refresh)
     session.on_parameters_change(refresh)
+
+
+def _live_value(name_latex: str, fn: Callable[[], np.ndarray]) -> Callable[[], str]:
+    """The blue line under a term: ``name = value`` typeset (``fn()`` gives the value)."""
+    return lambda: mathml.math_html(f"{name_latex} = {mathml.numeric_latex(fn())}", css_class="r2-num")
 
 
 def _velocity_fields(gui, coords, dq_state, refresh) -> None:

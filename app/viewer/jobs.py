@@ -59,6 +59,8 @@ class JobRunner:
         try:
             with job_context(self.workers, lambda: self.closed() or cancelled.is_set()):
                 result = fn(progress)
+            timer.cancel()       # the work is done: no bar while the page is updated (``on_done``
+            bar.remove()         # may wait on the page, as the first robot's panels do)
             if on_done is not None:
                 with self.callback_lock:      # panels are not rebuilt under a callback's feet
                     on_done(result)
@@ -112,6 +114,7 @@ class _ProgressBar:
             self.done = True
             for handle in self.handles or ():
                 handle.remove()
+            self.handles = None
 
 
 def _percent(fraction: float) -> float:

@@ -19,13 +19,15 @@ class JobCancelled(Exception):
 @dataclass(frozen=True)
 class PanelSpec:
     """One tab of the page: a panel module's ``TITLE``, ``ORDER``, ``build(session)``, optional
-    ``available(robot)`` and ``REBUILD``."""
+    ``available(robot)``, ``REBUILD`` and ``warm(robot, dynamics)`` (what ``build`` computes that
+    outlives the tab, done ahead while the server is idle: compiled functions, typeset formulas)."""
     name: str                     # module name, e.g. "model"
     title: str
     order: float
     build: Callable
     available: Optional[Callable] = None
     rebuild: bool = True
+    warm: Optional[Callable] = None
 
     def applies_to(self, robot) -> bool:
         return self.available is None or bool(self.available(robot))

@@ -12,6 +12,7 @@ import io
 import os
 import re
 import threading
+import time
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
@@ -27,6 +28,8 @@ from app.viewer.session import Session
 from app.viewer.worker import FairSlots, WorkerPool
 
 DEFAULT_ROBOT = "planar_2r"
+IDLE_QUIET = 1.0      # seconds after a tab asked for a robot before the warm-up goes on (LabServer.idle)
+IDLE_START = 10.0     # seconds the warm-up of every robot waits for the first tab
 
 
 @dataclass(frozen=True)
@@ -85,10 +88,14 @@ class LabServer:
                  verbose: bool = True, panels: PanelRegistry = PanelRegistry()):
         self.panels = panels
         self._robots: Dict[str, Tuple[float, RobotModel]] = {}
+        self._drawings: Dict[int, Tuple[RobotModel, object]] = {}   # id(robot) -> (robot, its default drawing)
+        self._last_load = 0.0          # time.monotonic() of the last robot a tab asked for (warm_up's idle)
         self._catalog: Dict[str, Tuple[float, RobotInfo]] = {}
         self._catalog_lock = threading.Lock()     # one reader builds it; a tab opening meanwhile waits
         self._lock = threading.Lock()
         self.sessions: Dict[int, Session] = {}
+        self.stopped = False
+        self.warmed = threading.Event()    # every robot was warmed (warm_up)
         names = list_robot_names()
         if robot is not None:
             self.robot(robot)          # fail early (UserError) on an unknown robot
@@ -114,6 +121,7 @@ class LabServer:
         return f"http://{shown}:{self.viser.get_port()}{token}"
 
     def stop(self) -> None:
+        self.stopped = True
         for session in list(self.sessions.values()):
             session.close()
         self.workers.close()
@@ -160,26 +168,95 @@ class LabServer:
                 continue
         return sorted(out, key=RobotInfo.sort_key)
 
-    def warm_up(self, *extra: Callable[[], object]) -> threading.Thread:
+    def drawing(self, robot: RobotModel):
+        """The drawing of ``robot`` at its file's parameter values (made once per loaded robot;
+        a drawing never changes once made, so the tabs share it).
+
+        >>> lab = LabServer(port=0, verbose=False)
+        >>> robot = lab.robot("planar_2r")
+        >>> lab.drawing(robot) is lab.drawing(robot)
+        True
+        >>> lab.stop()
+        """
+        from app.scene import RobotDrawing
+        with self._lock:
+            cached = self._drawings.get(id(robot))
+        if cached is not None and cached[0] is robot:
+            return cached[1]
+        drawing = RobotDrawing(robot)
+        with self._lock:
+            self._drawings = {k: v for k, v in self._drawings.items()
+                              if any(v[0] is r for _, r in self._robots.values())}    # robots reloaded since
+            self._drawings[id(robot)] = (robot, drawing)
+        return drawing
+
+    def note_load(self) -> None:
+        """A tab asks for a robot now (the idle warm-up keeps out of its way)."""
+        self._last_load = time.monotonic()
+
+    def idle(self) -> bool:
+        """No tab is loading a robot or building its panels, and none asked for one in the last
+        IDLE_QUIET seconds."""
+        if time.monotonic() - self._last_load < IDLE_QUIET:
+            return False
+        return all(session.ready.is_set() or session.closed for session in list(self.sessions.values()))
+
+    def warm_robot(self, name: str) -> bool:
+        """Do ahead what a switch to ``name`` would compute, when its model is in the disk cache
+        (a robot never derived is left to its first switch, which shows its progress): the robot
+        file, its drawing, its model, and each panel's ``warm`` (compiled functions, typeset
+        formulas). True when warmed."""
+        from app.core.dynamics import derive, is_derived
+        robot = self.robot(name)
+        self.drawing(robot)
+        if not is_derived(robot):
+            return False
+        dynamics = derive(robot)
+        for spec in self.panels.specs:
+            if spec.warm is not None and spec.applies_to(robot):
+                spec.warm(robot, dynamics)
+        return True
+
+    def warm_up(self, *extra: Callable[[], object], every_robot: bool = False) -> threading.Thread:
         """Read in a background thread what the first tab needs (issue 16: a page that answers at
         once): the robot picker's catalog (every robot file), the first robot's model (from the
         disk cache, or derived) and drawing, then each of ``extra`` (the panels' own lists). The
-        server answers meanwhile; a tab that opens early waits only for what is still missing."""
+        server answers meanwhile; a tab that opens early waits only for what is still missing.
+        Then, with ``every_robot``, whenever the server is idle (``idle``: after the first tab is
+        ready, or IDLE_START seconds without one), every other robot is warmed (``warm_robot``),
+        the largest first: a first switch to it then costs what a second one does."""
         def work():
             try:
                 self.catalog()
                 from app.core.dynamics import derive
-                from app.scene import RobotDrawing
                 robot = self.robot(self.initial_robot)
-                RobotDrawing(robot)
+                self.drawing(robot)
                 derive(robot)
                 for fn in extra:
                     fn()
             except Exception:         # the tab that needs it will say what is wrong
                 pass
+            if every_robot:
+                self._warm_every_robot()
         thread = threading.Thread(target=work, name="warm-up", daemon=True)
         thread.start()
         return thread
+
+    def _warm_every_robot(self) -> None:
+        started = time.monotonic()
+        while not self.sessions and time.monotonic() - started < IDLE_START and not self.stopped:
+            time.sleep(0.1)
+        names = [info.name for info in sorted(self.catalog(), key=lambda info: -info.dof)]
+        for name in names:
+            while not self.idle() and not self.stopped:
+                time.sleep(0.1)
+            if self.stopped:
+                return
+            try:
+                self.warm_robot(name)
+            except Exception:         # a switch to it will say what is wrong
+                continue
+        self.warmed.set()
 
     # ------------------------------------------------------------------ jobs
     def limited(self, fn: Callable) -> Callable:

@@ -438,9 +438,10 @@ class Session:
     def _load(self, name: str, pick: Optional[int] = None) -> None:
         if pick is None:
             pick = self._take_pick()
+        self.lab.note_load()
         try:
             robot = self.lab.robot(name)
-            drawing = RobotDrawing(robot)
+            drawing = self.lab.drawing(robot)
         except UserError as exc:
             self.notify(f"Cannot load {name}", str(exc), error=True)
             return
