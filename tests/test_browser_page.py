@@ -129,22 +129,26 @@ def test_model_tab_never_shows_the_previous_robots_matrices(module_tab, monkeypa
     assert page.locator('.r2-model[data-robot="rp_2004_03_25"]').count() == 1
 
 
-def test_a_switch_to_a_warmed_robot_compiles_reads_and_typesets_nothing(module_tab, lab, monkeypatch):
+def test_a_switch_to_a_warmed_robot_compiles_reads_and_typesets_nothing(module_tab, lab, monkeypatch, tmp_path):
     """Issue 16: the server warms robots at idle (``LabServer.warm_robot``): a first switch to one
-    after a restart then reads nothing from the disk cache, compiles no function, draws and typesets
-    nothing; a robot not warmed does all of that (which shows the counters see it)."""
+    then reads nothing from the disk cache, compiles no function, draws and typesets nothing; a
+    robot not warmed does all of that (which shows the counters see it). The robots are copies of
+    shipped files with a comment of their own: contents this process has never seen, so that the
+    test needs to forget no cache that other tests share."""
     import app.core.model_cache as model_cache
     import app.core.numeric.model as numeric_model
     import app.scene as scene
     import app.viewer.mathml as mathml
     from app.core.dynamics import derive
-    from app.core.robot import load_robot
-    from benchmarks.viewer import forget_memory
+    from app.core.robot import load_robot, robot_path
     page, session = module_tab("planar_2r", "Model", hide=False)
-    warmed, cold = "spatial_3r_2017_03_29", "rp_2004_03_25"
-    for name in (warmed, cold):
-        derive(load_robot(name))                         # in the disk cache, as for a restarted server
-    forget_memory(lab)                                   # the memory caches of a restarted server
+    copies = {}
+    for name in ("spatial_3r_2017_03_29", "rp_2004_03_25"):
+        copies[name] = tmp_path / f"{name}.yaml"
+        copies[name].write_text(robot_path(name).read_text(encoding="utf-8") + f"\n# a copy ({tmp_path.name})\n",
+                                encoding="utf-8")
+        derive(load_robot(copies[name]))                 # in the disk cache, as for a restarted server
+    warmed, cold = str(copies["spatial_3r_2017_03_29"]), str(copies["rp_2004_03_25"])
     assert lab.warm_robot(warmed)
     work = {"disk": 0, "compiled": 0, "drawn": 0, "typeset": 0}
 
@@ -158,12 +162,12 @@ def test_a_switch_to_a_warmed_robot_compiles_reads_and_typesets_nothing(module_t
     monkeypatch.setattr(numeric_model, "numeric_function", counted("compiled", numeric_model.numeric_function))
     monkeypatch.setattr(scene.RobotDrawing, "_build", counted("drawn", scene.RobotDrawing._build))
     monkeypatch.setattr(mathml, "blocks_html", counted("typeset", mathml.blocks_html))
-    pick(page, session, warmed)
-    assert page.locator(f'.r2-model[data-robot="{warmed}"]').count() == 1
+    shots.reload_robot(page, session, warmed)
+    assert page.locator('.r2-model[data-robot="spatial_3r_2017_03_29"]').count() == 1
     assert work == {"disk": 0, "compiled": 0, "drawn": 0, "typeset": 0}
-    pick(page, session, cold)
-    assert page.locator(f'.r2-model[data-robot="{cold}"]').count() == 1
-    assert work["disk"] > 0 and work["compiled"] > 0 and work["drawn"] == 1, work
+    shots.reload_robot(page, session, cold)
+    assert page.locator('.r2-model[data-robot="rp_2004_03_25"]').count() == 1
+    assert work["disk"] > 0 and work["compiled"] > 0 and work["drawn"] == 1 and work["typeset"] > 0, work
 
 
 def built_panels(page) -> dict:
