@@ -236,7 +236,7 @@ def _switch(page, session, name) -> tuple:
     return _ready_at(page, name, session.generation) - t0, cpu
 
 
-def forget_memory(lab) -> None:
+def _forget_memory(lab) -> None:
     """Empty the process's caches of models, compiled functions, drawings and typeset formulas
     (what a restarted server has); the disk cache stays."""
     import app.core.dynamics as dynamics
@@ -274,10 +274,10 @@ def switching(browser, robots=SWITCH) -> dict:
                 session = new_session(lab, page)
                 for name in robots:                   # warm the disk caches the page itself fills
                     _switch(page, session, name)
-                forget_memory(lab)
+                _forget_memory(lab)
                 for name in robots:
                     out["early"][name] = _switch(page, session, name)
-                forget_memory(lab)
+                _forget_memory(lab)
                 t0, c0 = time.time(), _server_cpu(lab)
                 lab.warm_up(every_robot=True)         # what ``serve`` starts
                 lab.warmed.wait(600)
@@ -289,7 +289,7 @@ def switching(browser, robots=SWITCH) -> dict:
                 for name in COLD:
                     with tempfile.TemporaryDirectory() as tmp:
                         os.environ["R2LAB_CACHE"] = tmp           # an empty disk cache
-                        forget_memory(lab)
+                        _forget_memory(lab)
                         out["cold"][name] = _switch(page, session, name)
                         _switch(page, session, "planar_2r")
                     os.environ["R2LAB_CACHE"] = cache

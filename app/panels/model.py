@@ -93,15 +93,12 @@ def warm(robot, dyn) -> None:
     """
     num = NumericModel(robot, dynamics=dyn)
     q, dq = np.zeros(robot.n), np.ones(robot.n)
-    num.M(q), num.c(q, dq), num.g(q)
-    if any(e != 0 for e in dyn.spring):
-        num.spring(q)
-    if any(e != 0 for e in dyn.friction):
-        num.friction(dq)
-    compiled_model(robot, dyn).coefficients()
+    values = _value_functions(robot, dyn, num, lambda: q, lambda: dq, robot.parameter_values)
     short = shorthand_is_clear(robot.parameters)
     for spec in _sections(robot, dyn, lambda: mathml.PANEL_WIDTH_EM, short):
         _typeset(robot, spec.title, spec.blocks, short, mathml.PANEL_WIDTH_EM)
+        if spec.value:
+            values[spec.value]()
 
 
 def build(session) -> None:
@@ -129,11 +126,7 @@ def build(session) -> None:
     _velocity_fields(gui, coords, dq_state, lambda: refresh())
 
     num = session.numeric
-    a_fn = compiled_model(robot, dyn).coefficients()
-    values = {"M": lambda: num.M(session.q), "c": lambda: num.c(session.q, dq_state["dq"]),
-              "C": lambda: num.C(session.q, dq_state["dq"]), "g": lambda: num.g(session.q),
-              "k": lambda: num.spring(session.q), r"\tau_f": lambda: num.friction(dq_state["dq"]),
-              "a": lambda: np.asarray(a_fn([session.params[k] for k in robot.parameters]), float).ravel()}
+    values = _value_functions(robot, dyn, num, lambda: session.q, lambda: dq_state["dq"], lambda: session.params)
 
     for spec in _sections(robot, dyn, lambda: layout["width"], short):
         # a folder with the typeset symbolic term and its live value
@@ -159,6 +152,15 @@ def build(session) -> None:
     refresh()
     session.on_q_change(refresh)
     session.on_parameters_change(refresh)
+
+
+def _value_functions(robot, dyn, num, q: Callable, dq: Callable, params: Callable) -> Dict[str, Callable]:
+    """The live value of each section (``Section.value`` -> a function of no argument), at the
+    state ``q()``, ``dq()`` and parameter values ``params()`` read when called."""
+    a_fn = compiled_model(robot, dyn).coefficients()
+    return {"M": lambda: num.M(q()), "c": lambda: num.c(q(), dq()), "C": lambda: num.C(q(), dq()),
+            "g": lambda: num.g(q()), "k": lambda: num.spring(q()), r"\tau_f": lambda: num.friction(dq()),
+            "a": lambda: np.asarray(a_fn([params()[k] for k in robot.parameters]), float).ravel()}
 
 
 def _live_value(name_latex: str, fn: Callable[[], np.ndarray]) -> Callable[[], str]:
