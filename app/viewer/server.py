@@ -28,8 +28,7 @@ from app.viewer.session import Session
 from app.viewer.worker import FairSlots, WorkerPool
 
 DEFAULT_ROBOT = "planar_2r"
-IDLE_QUIET = 2.0      # seconds after a tab asked for a robot before the warm-up goes on (LabServer.idle):
-                      # a new tab is ready about 1.6 s after it asks for its first robot
+IDLE_QUIET = 1.0      # seconds after a tab asked for a robot before the warm-up goes on (LabServer.idle)
 IDLE_START = 10.0     # seconds the warm-up of every robot waits for the first tab
 
 

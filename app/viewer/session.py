@@ -70,8 +70,6 @@ class Session:
         self._guessed: Optional[str] = None     # the address the first robot is loaded from, until the page confirms it
         self._first_pick = 0                    # the pick number of the guessed first robot
         self._font_sent = False                 # the math font's <style> is in the page
-        self._controls_built = False            # the side panel's controls are in the page (_build_controls)
-        self._controls_lock = threading.Lock()
         self.drawn = threading.Event()          # the page reported it has drawn the tab's first robot
         self._lock = threading.RLock()
         self._build_lock = threading.RLock()     # one thread builds or clears the panels at a time
@@ -220,6 +218,26 @@ class Session:
                             brand_color=(46, 94, 170))
         self.presenter = Presenter(self, order=ORDER_STYLE + 0.3, on_switch=lambda on: self._fire("presenter", on))
         self._catalog = self.lab.catalog()
+        self.picker = RobotPicker(gui, self._catalog, ORDER_PICKER, lambda: self.robot_name, self.load_robot,
+                                  self._lock)
+        self._info = gui.add_html("", order=ORDER_INFO)
+        self._badge = gui.add_html(self._badge_html("pending", "pinocchio cross-check: waiting for the model"),
+                                   order=ORDER_BADGE)
+        self._status = gui.add_html(self._status_html(False), order=ORDER_BADGE + 0.5)
+        self._coord_folder = gui.add_folder("Joint coordinates", order=ORDER_COORDS)
+        self._param_folder = gui.add_folder("Parameters", order=ORDER_PARAMS, expand_by_default=False)
+        display = gui.add_folder("Display", order=ORDER_DISPLAY, expand_by_default=False)
+        with display:
+            for key, label, hint in (("frames", "Body frames", "axes of every body frame (x red, y green, z blue)"),
+                                     ("coms", "Centres of mass", "the CoM of every link"),
+                                     ("labels", "Joint labels", "the joint variable at every joint"),
+                                     ("plane", "Plane / ground", "the plane of motion or the ground grid")):
+                box = gui.add_checkbox(label, self.scene.options[key], hint=hint)
+                box.on_update(lambda event, key=key: self.scene.set_option(key, event.target.value))
+            gui.add_button("Frame the robot", hint="camera back to the full view").on_click(
+                lambda _: self.scene.frame_camera())
+            self.presenter.add_switch()
+        self.picker.listen()
         registry = self.lab.panels
         self._panel_specs = list(registry.specs)
         for err in registry.errors:
@@ -242,36 +260,6 @@ class Session:
         timer = threading.Timer(URL_WAIT, self._start, ("",))
         timer.daemon = True
         timer.start()
-
-    def _build_controls(self) -> None:
-        """The side panel's controls (picker, robot info, badges, sliders' and parameters' folders,
-        display options), once: after the tab's first robot is drawn (``_load``). Sent with the
-        robot, they held the page's first frame back by about 0.2 s in software WebGL."""
-        with self._controls_lock:
-            if self._controls_built:
-                return
-            gui = self.gui
-            self.picker = RobotPicker(gui, self._catalog, ORDER_PICKER, lambda: self.robot_name, self.load_robot,
-                                      self._lock)
-            self._info = gui.add_html("", order=ORDER_INFO)
-            self._badge = gui.add_html(self._badge_html("pending", "pinocchio cross-check: waiting for the model"),
-                                       order=ORDER_BADGE)
-            self._status = gui.add_html(self._status_html(False), order=ORDER_BADGE + 0.5)
-            self._coord_folder = gui.add_folder("Joint coordinates", order=ORDER_COORDS)
-            self._param_folder = gui.add_folder("Parameters", order=ORDER_PARAMS, expand_by_default=False)
-            display = gui.add_folder("Display", order=ORDER_DISPLAY, expand_by_default=False)
-            with display:
-                for key, label, hint in (("frames", "Body frames", "axes of every body frame (x red, y green, z blue)"),
-                                         ("coms", "Centres of mass", "the CoM of every link"),
-                                         ("labels", "Joint labels", "the joint variable at every joint"),
-                                         ("plane", "Plane / ground", "the plane of motion or the ground grid")):
-                    box = gui.add_checkbox(label, self.scene.options[key], hint=hint)
-                    box.on_update(lambda event, key=key: self.scene.set_option(key, event.target.value))
-                gui.add_button("Frame the robot", hint="camera back to the full view").on_click(
-                    lambda _: self.scene.frame_camera())
-                self.presenter.add_switch()
-            self.picker.listen()
-            self._controls_built = True
 
     # ================================================================== the page's address
     async def _page_reported(self, event) -> None:
@@ -455,11 +443,9 @@ class Session:
             robot = self.lab.robot(name)
             drawing = self.lab.drawing(robot)
         except UserError as exc:
-            self._build_controls()
             self.notify(f"Cannot load {name}", str(exc), error=True)
             return
         except Exception:
-            self._build_controls()
             self._internal_error(owner=f"drawing of {name}")
             return
         with self._lock:
@@ -476,48 +462,26 @@ class Session:
             self.dynamics, self.numeric = None, None
             self.params = robot.parameter_values()
             self.q = default_q(robot)
-            first = not self._controls_built
-            if first:        # the tab's first robot: drawn alone, the controls follow once the page has drawn it
-                self.scene.show_robot(drawing, self.q)
-                self.scene.frame_camera()
-                self._probe.content = url_state.drawn_probe_html(generation, self.scene.robot_root + "/")
-        if first:
-            threading.Thread(target=self._guarded, args=(f"the page of {name}", self._after_first_frame, generation),
-                             daemon=True, name=f"first-frame-{self.tab_id}").start()
-        else:
-            self._show_loaded(generation, draw=True)
-
-    def _after_first_frame(self, generation: int) -> None:
-        """The rest of the tab's first robot, once the page has drawn it (or DRAWN_WAIT seconds)."""
-        self.drawn.wait(DRAWN_WAIT)
-        self._build_controls()
-        self._show_loaded(generation, draw=False)
-
-    def _show_loaded(self, generation: int, draw: bool) -> None:
-        """The loaded robot's controls (with its drawing when ``draw``), then its model's derivation."""
-        with self._lock:
-            if generation != self.generation:
-                return
-            robot, drawing, name = self.robot, self.drawing, self.robot_name
             with self.client.atomic():
                 self._status.content = self._status_html(False, name, generation)
                 self._info.content = self._info_html(robot)
                 self._badge.content = self._badge_html("pending", "pinocchio cross-check: waiting for the model")
-                if draw:
-                    self.scene.clear_overlays()
-                    self.scene.clear_highlight()
-                    self.scene.show_robot(drawing, self.q)
+                self.scene.clear_overlays()
+                self.scene.clear_highlight()
+                self.scene.show_robot(drawing, self.q)
                 self._build_coordinates()
                 self._build_parameters()
                 self._clear_panels(robot)
-            if draw:
-                self.scene.frame_camera()
+            self.scene.frame_camera()
             self.picker.show(name)
             if self.url.get("robot") != name:      # panels put theirs back if they still apply
                 for key in ("exercise", "step", "throw"):
                     self.url.pop(key, None)
             self.url["robot"] = name
+            probe = not self._font_sent and not self.drawn.is_set()
         self._write_url()
+        if probe:          # the page says when it has drawn the tab's first robot (_send_font waits)
+            self._probe.content = url_state.drawn_probe_html(generation)
 
         def work(progress):
             if not is_derived(robot):       # a cold derivation runs in a worker process

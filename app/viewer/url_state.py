@@ -122,22 +122,12 @@ def bridge_html() -> str:
     return _handler(js)
 
 
-def drawn_probe_html(serial: int = 0, node_prefix: str = "") -> str:
-    """Reports ``drawn`` through the hidden field once the page has drawn a frame holding a scene
-    node whose name starts with ``node_prefix`` (the robot's: two animation frames after viser's
-    page made its 3D object; viser exposes its scene objects as ``window.__viserMutable`` for
-    end-to-end tests); without that hook, after the next animation frame. Sent right after a
-    robot's drawing, it tells the server that the page has drawn it (a GUI element mounts about
-    0.1 s before the 3D view's frame). ``serial`` makes every call's HTML new (so it runs again).
-
-    >>> 'startsWith("/robot/d1/")' in html.unescape(drawn_probe_html(1, "/robot/d1/"))
-    True
-    """
-    js = ("(function f(n){const m=window.__viserMutable,r=m&&m.nodeRefFromName;"
-          "if(r&&n>0&&!Object.keys(r).some(k=>k.startsWith(" + json.dumps(node_prefix) + ")&&r[k]))"
-          "{requestAnimationFrame(()=>f(n-1));return;}"
-          "requestAnimationFrame(()=>requestAnimationFrame(()=>window.__r2report&&window.__r2report('drawn',20)));})(300)")
-    return f'<span data-r2-drawn="{serial}"></span>' + _handler(js)
+def drawn_probe_html(serial: int = 0) -> str:
+    """Reports ``drawn`` through the hidden field after the next animation frame: sent
+    right after a robot's drawing, it tells the server that the page has drawn it. ``serial``
+    makes every call's HTML new (so it runs again)."""
+    return f'<span data-r2-drawn="{serial}"></span>' + _handler("requestAnimationFrame(()=>setTimeout(()=>"
+                    "window.__r2report&&window.__r2report('drawn',20)))")
 
 
 def write_html(state: Mapping[str, Optional[str]], select_tab: Optional[str] = None, serial: int = 0) -> str:
