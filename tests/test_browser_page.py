@@ -8,6 +8,7 @@ software WebGL); the tests of the page's address, of a reload, of the picker's l
 open their own tabs."""
 import threading
 import time
+import uuid
 
 import numpy as np
 import pytest
@@ -133,7 +134,7 @@ def test_a_switch_to_a_warmed_robot_compiles_reads_and_typesets_nothing(module_t
     """Issue 16: the server warms robots at idle (``LabServer.warm_robot``): a first switch to one
     then reads nothing from the disk cache, compiles no function, draws and typesets nothing; a
     robot not warmed does all of that (which shows the counters see it). The robots are copies of
-    shipped files with a comment of their own: contents this process has never seen, so that the
+    shipped files with a comment of their own: contents no run has seen (not in the disk cache), so that the
     test needs to forget no cache that other tests share."""
     import app.core.model_cache as model_cache
     import app.core.numeric.model as numeric_model
@@ -145,7 +146,7 @@ def test_a_switch_to_a_warmed_robot_compiles_reads_and_typesets_nothing(module_t
     copies = {}
     for name in ("spatial_3r_2017_03_29", "rp_2004_03_25"):
         copies[name] = tmp_path / f"{name}.yaml"
-        copies[name].write_text(robot_path(name).read_text(encoding="utf-8") + f"\n# a copy ({tmp_path.name})\n",
+        copies[name].write_text(robot_path(name).read_text(encoding="utf-8") + f"\n# a copy ({uuid.uuid4().hex})\n",
                                 encoding="utf-8")
         derive(load_robot(copies[name]))                 # in the disk cache, as for a restarted server
     warmed, cold = str(copies["spatial_3r_2017_03_29"]), str(copies["rp_2004_03_25"])
