@@ -4,7 +4,9 @@ The browser sends a text field's content on every keystroke, so reading a value 
 "1e9" into "1", then an error for "1e", then 1e9 (and a slider's number box, which drops the
 "e", into 19). A ``CommittedField`` waits until the typing pauses (``COMMIT_DELAY``), then parses
 the text once: a good value is handed to ``commit``; a bad one gets one message and the last
-good text comes back.
+good text comes back. An emptied field waits longer (``EMPTY_DELAY``): clearing a field and then
+thinking before typing is common, and the restored text would otherwise land over the keys the
+browser has not sent yet. A refusal never overwrites an edit that arrived after its text was read.
 
 >>> class Handle:                     # stands in for a viser text handle in this example
 ...     value = "2"
@@ -34,6 +36,7 @@ from app.core.expressions import ExpressionError, excerpt, parse_number
 from app.core.robot_model import ParameterError
 
 COMMIT_DELAY = 0.6       # seconds without a keystroke that count as "done typing"
+EMPTY_DELAY = 3.0        # seconds an emptied field waits before it is refused
 
 
 class CommittedField:
@@ -46,11 +49,12 @@ class CommittedField:
 
     def __init__(self, handle, parse: Callable[[str], object], commit: Callable[[object], None],
                  refuse: Callable[[str], None], format: Callable[[object], str] = str,
-                 delay: float = COMMIT_DELAY):
+                 delay: float = COMMIT_DELAY, empty_delay: float = EMPTY_DELAY):
         self.handle, self.parse, self.commit, self.refuse, self.format = handle, parse, commit, refuse, format
-        self.delay = delay
+        self.delay, self.empty_delay = delay, empty_delay
         self._lock = threading.Lock()
         self._timer: Optional[threading.Timer] = None
+        self._edits = 0                    # edits received: a refusal checks that none came since
         self._good_text = handle.value
         self.closed = False
         handle.on_update(self._typed)
@@ -88,7 +92,9 @@ class CommittedField:
             if self.closed:
                 return
             self._cancel()
-            self._timer = threading.Timer(self.delay, self._take)
+            self._edits += 1
+            wait = self.empty_delay if not str(self.handle.value).strip() else self.delay
+            self._timer = threading.Timer(wait, self._take)
             self._timer.daemon = True
             self._timer.start()
 
@@ -97,11 +103,14 @@ class CommittedField:
             self._timer = None
             if self.closed:
                 return
-            text = self.handle.value
+            text, edits = self.handle.value, self._edits
         try:
             value = self.parse(text)
         except UserError as exc:
-            self.handle.value = self._good_text
+            with self._lock:
+                if self.closed or self._edits != edits:
+                    return                 # a newer edit came in: its own pause decides
+                self.handle.value = self._good_text
             self.refuse(str(exc))
             return
         with self._lock:
