@@ -351,6 +351,41 @@ def test_address_opens_that_page_and_follows_it(lab, browser, tmp_path):
         shots.close_tab(page)
 
 
+def test_changed_parameters_are_in_the_address_and_come_back_after_a_reload(lab, browser):
+    """A link with ``p.m1=12.5`` opens the robot with that mass, and bad parameters in it are named
+    in a notice; a typed value joins the address, a reload keeps them all, a value typed back to
+    the file's leaves the address, and another robot starts from its own file's values."""
+    page, session = open_page(lab, browser, "robot=planar_2r&tab=model&p.m1=12.5&p.l1=-2&p.nosuch=1", "planar_2r")
+    try:
+        shots.wait_until(lambda: session.numeric.values["m1"] == pytest.approx(12.5, abs=1e-12), 10, "m1 = 12.5")
+        notice = next(n for n in notifications(page) if "address was not understood" in n)
+        assert "p.l1=-2" in notice and "must not be negative" in notice and "p.nosuch=1" in notice
+        assert session.params["l1"] == pytest.approx(session.robot.parameters["l1"].value, abs=1e-12)
+        page.wait_for_function("() => location.search === '?robot=planar_2r&tab=model&p.m1=12.5'", timeout=5000)
+        shots.hide_notifications(page)
+        walk.type_text(walk.parameter_box(page, session, "m2"), "7")
+        page.wait_for_function("() => location.search === '?robot=planar_2r&tab=model&p.m1=12.5&p.m2=7'",
+                               timeout=5000)
+        old = session
+        page.reload()
+        shots.wait_ready(page, "planar_2r")
+        session = shots.new_session(lab, page)
+        shots.wait_until(lambda: old.closed, 10, "the old tab's session to close")
+        shots.wait_until(lambda: session.numeric.values["m2"] == pytest.approx(7, abs=1e-12), 10, "m2 = 7")
+        assert session.numeric.values["m1"] == pytest.approx(12.5, abs=1e-12)
+        assert walk.parameter_box(page, session, "m1").input_value() == "12.5"
+        assert shots.selected_tab(page) == "Model"
+        assert_drawn_right(page, session)
+        walk.type_text(walk.parameter_box(page, session, "m1"), "10")          # the file's value again
+        page.wait_for_function("() => location.search === '?robot=planar_2r&tab=model&p.m2=7'", timeout=5000)
+        pick(page, session, "rp_2004_03_25")
+        page.wait_for_function("() => location.search === '?robot=rp_2004_03_25&tab=model'", timeout=5000)
+        assert session.params == session.robot.parameter_values()
+        assert page.r2_errors == []
+    finally:
+        shots.close_tab(page)
+
+
 def test_a_clicked_tab_stays_when_a_panel_writes_the_address(module_tab):
     """Found by the walk: a tab clicked by the student jumped back to the previous one when a
     panel wrote the address (a step revealed) before the page had told the server of the click."""

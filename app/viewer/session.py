@@ -137,7 +137,11 @@ class Session:
         for name, value in values.items():
             if name not in self.params:
                 raise ParameterError(f"unknown parameter '{name}'")
-            checked[name] = parse_parameter(self.robot, name, format_number(float(value)))
+            try:
+                number = float(value)
+            except (TypeError, ValueError):
+                raise ParameterError(f"{name}: {value!r} is not a number") from None
+            checked[name] = self.robot.check_parameter_value(name, number)
         with self._lock:
             self.params.update(checked)
             for name, value in checked.items():
@@ -420,6 +424,17 @@ class Session:
                 studio.load(throw)
             except Exception as exc:
                 problems.append(f"throw={throw} ({exc})")
+        values = {}               # after the throw, whose file sets parameters: the address's win
+        for key, text in pending.items():
+            name = url_state.parameter_name(key)
+            if name is None:
+                continue
+            try:
+                values[name] = parse_parameter(self.robot, name, text)
+            except UserError as exc:
+                problems.append(f"{key}={text} ({exc})")
+        if values:
+            self.set_parameters(values)
         if problems:
             self.notify("Part of the page's address was not understood", "; ".join(problems), error=True)
         self._write_url()
@@ -461,6 +476,7 @@ class Session:
                     self._drop_listeners(spec.name)
             self.dynamics, self.numeric = None, None
             self.params = robot.parameter_values()
+            self._parameters_to_address()
             self.q = default_q(robot)
             with self.client.atomic():
                 self._status.content = self._status_html(False, name, generation)
@@ -628,8 +644,20 @@ class Session:
             drawing = RobotDrawing(robot, values)
             self.drawing = drawing
             self.scene.show_robot(drawing, self.q)
+            self._parameters_to_address()
+        self._write_url()
         self._fire("parameters", values)
         self._check_job.request()
+
+    def _parameters_to_address(self) -> None:
+        """(lock held) The address's ``p.<name>`` keys: every parameter whose value differs from
+        the robot file's, so that a reload or a shared link shows the same model."""
+        for key in [k for k in self.url if url_state.parameter_name(k)]:
+            del self.url[key]
+        for name, default in self.robot.parameter_values().items():
+            value = self.params.get(name, default)
+            if value != default:
+                self.url[url_state.parameter_key(name)] = url_state.address_number(value)
 
     def _run_check(self) -> None:
         with self._lock:

@@ -1,5 +1,6 @@
 """The page's state in its address: ``/?robot=rp_2004_03_25&tab=model`` (robot, tab, exercise and
-step, throw), so that a reload restores the page and a link can be shared with a class.
+step, throw, and each parameter changed from the robot file's value as ``p.<name>=<value>``), so
+that a reload restores the page and a link can be shared with a class.
 
 viser's page does not tell the server its address, and the server cannot run scripts in it
 except through HTML: ``bridge_html`` is an image that fails to load on purpose, whose ``onerror``
@@ -10,10 +11,12 @@ server through a hidden text field, and ``write_html`` rewrites the address bar
 Exercise ids are written as their file names (``2004-03-25#1`` as ``2004-03-25_1``): viser
 rewrites the address unescaped when it connects, and a ``#`` would start the fragment.
 
->>> parse_query("?robot=rp_2004_03_25&tab=model&exercise=2004-03-25_1&step=3&junk=1")
-{'robot': 'rp_2004_03_25', 'tab': 'model', 'exercise': '2004-03-25#1', 'step': '3'}
+>>> parse_query("?robot=rp_2004_03_25&tab=model&exercise=2004-03-25_1&step=3&junk=1&p.m1=2.5")
+{'robot': 'rp_2004_03_25', 'tab': 'model', 'exercise': '2004-03-25#1', 'step': '3', 'p.m1': '2.5'}
 >>> query_string({"robot": "rp_2004_03_25", "tab": "steps", "exercise": "2004-03-25#1", "throw": None})
 '?robot=rp_2004_03_25&tab=steps&exercise=2004-03-25_1'
+>>> query_string({"p.m1": address_number(2e20), "robot": "planar_2r"})
+'?robot=planar_2r&p.m1=2e20'
 """
 from __future__ import annotations
 
@@ -26,6 +29,8 @@ from typing import Dict, List, Mapping, Optional, Tuple
 from urllib.parse import parse_qsl, urlencode
 
 KEYS = ("robot", "tab", "exercise", "step", "throw")
+PARAMETER_PREFIX = "p."                 # p.m1=2.5: the parameter m1 at 2.5 (a changed value)
+PARAMETER_KEY = re.compile(r"^p\.[A-Za-z_][A-Za-z0-9_]{0,40}$")
 BRIDGE_LABEL = "r2-page-report"        # the hidden text field the page reports through
 #: a value the address may carry: names, exercise ids like 2013-07-15#1, step numbers
 SAFE_VALUE = re.compile(r"^[A-Za-z0-9_.#\-]{1,80}$")
@@ -34,7 +39,7 @@ def parse_query(search: str) -> Dict[str, str]:
     """The known keys of an address's query (``?a=b&c=d``); the first value of each wins."""
     out: Dict[str, str] = {}
     for key, value in parse_qsl((search or "").lstrip("?"), keep_blank_values=False):
-        if key in KEYS and key not in out:
+        if (key in KEYS or PARAMETER_KEY.match(key)) and key not in out:
             out[key] = re.sub(r"_(\d+)$", r"#\1", value) if key == "exercise" else value
     return out
 
@@ -83,9 +88,31 @@ class PageRequests:
         self._loads = [(t, q) for t, q in self._loads if now - t < self.window]
 
 
+def parameter_key(name: str) -> str:
+    """The address key of parameter ``name``: ``p.m1``."""
+    return PARAMETER_PREFIX + name
+
+
+def parameter_name(key: str) -> Optional[str]:
+    """The parameter an address key names (``p.m1`` -> ``m1``), or None for any other key."""
+    return key[len(PARAMETER_PREFIX):] if PARAMETER_KEY.match(key) else None
+
+
+def address_number(value: float) -> str:
+    """A number as the address writes it: exact (the shortest text that reads back as the same
+    float) and without the ``+`` an address would turn into a space.
+
+    >>> address_number(12.0), address_number(0.1), address_number(-2.5e-07), address_number(1e16)
+    ('12', '0.1', '-2.5e-07', '1e16')
+    """
+    text = repr(float(value)).replace("e+", "e")
+    return text[:-2] if text.endswith(".0") else text
+
+
 def query_string(state: Mapping[str, Optional[str]]) -> str:
-    """``?key=value&...`` of the keys set in ``state``, in the order of KEYS."""
-    items = [(k, str(state[k]).replace("#", "_")) for k in KEYS if state.get(k) not in (None, "")]
+    """``?key=value&...`` of the keys set in ``state``, in the order of KEYS, then the parameters."""
+    keys = list(KEYS) + [k for k in state if parameter_name(k)]
+    items = [(k, str(state[k]).replace("#", "_")) for k in keys if state.get(k) not in (None, "")]
     return "?" + urlencode(items) if items else "?"
 
 
