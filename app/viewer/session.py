@@ -644,20 +644,24 @@ class Session:
             drawing = RobotDrawing(robot, values)
             self.drawing = drawing
             self.scene.show_robot(drawing, self.q)
-            self._parameters_to_address()
-        self._write_url()
+            moved = self._parameters_to_address()
+        if moved:
+            self._write_url()
         self._fire("parameters", values)
         self._check_job.request()
 
-    def _parameters_to_address(self) -> None:
+    def _parameters_to_address(self) -> bool:
         """(lock held) The address's ``p.<name>`` keys: every parameter whose value differs from
-        the robot file's, so that a reload or a shared link shows the same model."""
-        for key in [k for k in self.url if url_state.parameter_name(k)]:
+        the robot file's, so that a reload or a shared link shows the same model. True when
+        they changed."""
+        old = {k: v for k, v in self.url.items() if url_state.parameter_name(k)}
+        new = {url_state.parameter_key(name): url_state.address_number(self.params.get(name, default))
+               for name, default in self.robot.parameter_values().items()
+               if self.params.get(name, default) != default}
+        for key in old:
             del self.url[key]
-        for name, default in self.robot.parameter_values().items():
-            value = self.params.get(name, default)
-            if value != default:
-                self.url[url_state.parameter_key(name)] = url_state.address_number(value)
+        self.url.update(new)
+        return new != old
 
     def _run_check(self) -> None:
         with self._lock:

@@ -39,7 +39,7 @@ def parse_query(search: str) -> Dict[str, str]:
     """The known keys of an address's query (``?a=b&c=d``); the first value of each wins."""
     out: Dict[str, str] = {}
     for key, value in parse_qsl((search or "").lstrip("?"), keep_blank_values=False):
-        if (key in KEYS or PARAMETER_KEY.match(key)) and key not in out:
+        if (key in KEYS or parameter_name(key)) and key not in out:
             out[key] = re.sub(r"_(\d+)$", r"#\1", value) if key == "exercise" else value
     return out
 
