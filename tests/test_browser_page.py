@@ -386,6 +386,33 @@ def test_changed_parameters_are_in_the_address_and_come_back_after_a_reload(lab,
         shots.close_tab(page)
 
 
+def test_screenshot_sets_parameters_and_the_next_picture_reuses_its_tab(lab, browser, tmp_path):
+    """``python -m app screenshot --set l1=1.6``: the picture shows the robot with that link
+    (drawn right, against pinocchio); the next picture, of another robot, reuses the tab, with
+    that robot's own parameters and coordinates."""
+    from app.commands.screenshot import shoot
+    key = (id(lab), 960, 540)
+    try:
+        first = shoot("planar_2r", tmp_path / "a.png", "model", q=[0.3, -0.6], params={"l1": 1.6},
+                      width=960, height=540, lab=lab, browser=browser)
+        assert first.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        page, session = browser.kept_tabs[key]
+        assert session.numeric.values["l1"] == pytest.approx(1.6, abs=1e-12)
+        assert session.q == pytest.approx([0.3, -0.6], abs=1e-12)
+        assert_drawn_right(page, session)
+        second = shoot("rp_2004_03_25", tmp_path / "b.png", "model", width=960, height=540, lab=lab,
+                       browser=browser)
+        assert second.read_bytes() != first.read_bytes()
+        again, session = browser.kept_tabs[key]
+        assert again is page and session.robot_name == "rp_2004_03_25"
+        assert session.params == session.robot.parameter_values()
+        assert_drawn_right(page, session)
+    finally:
+        kept = browser.kept_tabs.pop(key, None)
+        if kept is not None:
+            shots.close_tab(kept[0])
+
+
 def test_a_clicked_tab_stays_when_a_panel_writes_the_address(module_tab):
     """Found by the walk: a tab clicked by the student jumped back to the previous one when a
     panel wrote the address (a step revealed) before the page had told the server of the click."""

@@ -66,6 +66,11 @@ CASES = [
     ("solve 2004-03-25#1 --set m1=" + LONG, ""),
     ("solve 2004-03-25#1 --set m1=((((9**64)**64)**64)**64)", "too large"),
     ("solve 2004-03-25#1 --set m1=sqrt(-1)", "real"),
+    ("solve 2004-03-25#1 --set m1", "expects NAME=VALUE"),
+    ("screenshot --robot planar_2r --out {tmp}/x.png --set m1=-1", "must not be negative"),
+    ("screenshot --robot planar_2r --out {tmp}/x.png --set nosuch=1", "unknown parameter"),
+    ("screenshot --robot planar_2r --out {tmp}/x.png --set =1", "expects NAME=VALUE"),
+    ("screenshot --robot planar_2r --out {tmp}/x.png --set m1=" + LONG, ""),
     ("derive " + LONG, ""),
     ("derive planar_2r --known=m1\x00", "null character"),
 ]

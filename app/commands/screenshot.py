@@ -10,6 +10,8 @@ def add_arguments(p):
     p.add_argument("--panel", default=None, help="tab to open, e.g. model, steps (case-insensitive)")
     p.add_argument("--q", default=None, help="coordinates, comma-separated, e.g. 0.3,-0.6")
     p.add_argument("--step", type=int, default=None, help="with --panel steps: the step to show (1-based)")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                   help="a parameter of the robot, e.g. m1=12 or l1=3/2 (repeatable)")
     p.add_argument("--out", default=None, help="PNG file to write")
     p.add_argument("--width", type=int, default=1280)
     p.add_argument("--height", type=int, default=720)
@@ -28,6 +30,13 @@ def run(args) -> int:
         raise UserError("give --robot NAME and --out FILE.png (or --all-docs)")
     if args.robot not in list_robot_names() and not Path(args.robot).exists():
         raise UserError(f"unknown robot '{args.robot}' (`python -m app robots` lists them)")
+    params = {}
+    if args.set:              # checked before a browser starts, by the rule of the page's fields
+        from app.commands._options import assignments
+        from app.core.robot import load_robot
+        from app.viewer.fields import parse_parameter
+        robot = load_robot(args.robot)
+        params = {name: parse_parameter(robot, name, text) for name, text in assignments(args.set).items()}
     q = None
     if args.q:
         try:
@@ -35,7 +44,7 @@ def run(args) -> int:
         except ValueError:
             raise UserError(f"--q: expected comma-separated numbers, got '{args.q}'") from None
     path = shoot(args.robot, args.out, args.panel, q, (args.step - 1) if args.step else None,
-                 args.width, args.height)
+                 args.width, args.height, params=params)
     print(path)
     return 0
 
@@ -53,16 +62,22 @@ def _panel_title(name):
     raise UserError(f"unknown panel '{name}' (panels: {', '.join(titles)})")
 
 
-def shoot(robot, out, panel=None, q=None, step=None, width=1280, height=720, lab=None, browser=None):
-    """One picture; ``q`` sets the coordinates, ``step`` opens a derivation step (0-based); a lab
-    server (with the panels, ``serve.lab_server``) is started for it unless ``lab`` is given."""
+def shoot(robot, out, panel=None, q=None, step=None, width=1280, height=720, lab=None, browser=None,
+          params=None):
+    """One picture; ``q`` sets the coordinates, ``step`` opens a derivation step (0-based),
+    ``params`` ({name: value}) changes parameters of the robot; a lab server (with the panels,
+    ``serve.lab_server``) is started for it unless ``lab`` is given."""
     from app.commands.serve import lab_server
     from app.core.errors import UserError
-    from app.viewer.screenshot import capture
+    from app.viewer.screenshot import capture, wait_until
 
     title = _panel_title(panel)
 
     def setup(session):
+        if params:
+            session.set_parameters(params)
+            wait_until(lambda: all(session.numeric.values[k] == v for k, v in params.items()), 30,
+                       "the parameters in the model")
         if q is not None:
             if len(q) != session.robot.n:
                 raise UserError(f"--q: {session.robot_name} has {session.robot.n} coordinates, got {len(q)}")

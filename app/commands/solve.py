@@ -74,17 +74,13 @@ def run(args) -> int:
 
 def _run(args):
     """(exit code, [(reference, path)] of the robot file the solution read)."""
-    from app.core.errors import UserError
+    from app.commands._options import assignments
     from app.core.exercise import load_exercise, solve
     from app.core.expressions import parse_number
 
     ex = load_exercise(args.exercise)
-    given = {}
-    for item in args.set:
-        if "=" not in item:
-            raise UserError(f"--set expects NAME=VALUE, got {item!r}")
-        name, value = item.split("=", 1)
-        given[name.strip()] = parse_number(value, name.strip())
+    variant = assignments(args.set)
+    given = {name: parse_number(text, name) for name, text in variant.items()}
     sol = solve(ex, given)
     if args.out:
         with open(args.out, "w", encoding="utf-8") as fh:
@@ -92,7 +88,6 @@ def _run(args):
     if args.latex:
         from app.commands.derive import write_text
         from app.core.tex import solution_tex
-        variant = dict((part.strip() for part in item.split("=", 1)) for item in args.set)
         write_text(args.latex, solution_tex(sol, variant), "--latex", quiet=args.json)
         if not args.json:
             return 0, ()
