@@ -386,31 +386,31 @@ def test_changed_parameters_are_in_the_address_and_come_back_after_a_reload(lab,
         shots.close_tab(page)
 
 
-def test_screenshot_sets_parameters_and_the_next_picture_reuses_its_tab(lab, browser, tmp_path):
+def test_screenshot_sets_parameters_and_the_next_picture_resets_them(module_tab, lab, browser, tmp_path):
     """``python -m app screenshot --set l1=1.6``: the picture shows the robot with that link
-    (drawn right, against pinocchio); the next picture, of another robot, reuses the tab, with
-    that robot's own parameters and coordinates."""
+    (drawn right, against pinocchio); the next picture, of another robot, in the same kept tab,
+    has that robot's own parameters. (The module's tab stands in for a tab an earlier picture
+    kept: a new tab costs seconds in software WebGL.)"""
     from app.commands.screenshot import shoot
+    page, session = module_tab("planar_2r")
     key = (id(lab), 960, 540)
+    browser.kept_tabs[key] = (page, session)
     try:
         first = shoot("planar_2r", tmp_path / "a.png", "model", q=[0.3, -0.6], params={"l1": 1.6},
                       width=960, height=540, lab=lab, browser=browser)
         assert first.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-        page, session = browser.kept_tabs[key]
+        assert browser.kept_tabs[key] == (page, session)
         assert session.numeric.values["l1"] == pytest.approx(1.6, abs=1e-12)
         assert session.q == pytest.approx([0.3, -0.6], abs=1e-12)
         assert_drawn_right(page, session)
         second = shoot("rp_2004_03_25", tmp_path / "b.png", "model", width=960, height=540, lab=lab,
                        browser=browser)
         assert second.read_bytes() != first.read_bytes()
-        again, session = browser.kept_tabs[key]
-        assert again is page and session.robot_name == "rp_2004_03_25"
+        assert browser.kept_tabs[key] == (page, session) and session.robot_name == "rp_2004_03_25"
         assert session.params == session.robot.parameter_values()
         assert_drawn_right(page, session)
     finally:
-        kept = browser.kept_tabs.pop(key, None)
-        if kept is not None:
-            shots.close_tab(kept[0])
+        browser.kept_tabs.pop(key, None)           # the module's tab: closed by its fixture
 
 
 def test_a_clicked_tab_stays_when_a_panel_writes_the_address(module_tab):
