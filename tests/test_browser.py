@@ -169,8 +169,7 @@ def test_two_tabs_keep_independent_state(lab, browser, module_tab):
 def test_bad_parameter_is_refused_with_a_message(module_tab, typed, message):
     page, session = module_tab("planar_2r", hide=False)
     box = shots.field(page, "m1 [kg]")
-    if not box.is_visible():                          # the folder is closed: open it
-        page.get_by_text("Parameters", exact=True).click()
+    shots.open_folder(page, "Parameters")
     box.click()
     box.press("Control+a")
     box.press("Backspace")

@@ -249,7 +249,7 @@ def test_a_variant_is_solved_and_a_bad_value_is_refused(lab, browser):
     page, session, panel, ex = open_exercise(lab, browser, "2020-06-05#1", hide=False)
     try:
         exam = panel.solution
-        page.get_by_text("Change the numbers (variant)").click()
+        shots.open_folder(page, "Change the numbers (variant)")
         # a bad value: a clear message, nothing solved, the page keeps working
         typed(page, "V", "[1, fast, 2]")
         wait_until(lambda: dict((f.name, h.value) for f, h in panel._fields)["V"] == "[1, fast, 2]", what="typing")
@@ -287,7 +287,7 @@ def test_exam_sheet_button_offers_the_sheet_as_downloads(lab, browser):
     server, are left to tests/test_sheet.py); nothing chosen or an unknown id is refused."""
     page, session = shots.open_tab(lab, browser, "planar_2r", tab="Exercises", height=900, hide=False)
     try:
-        page.get_by_text("Printable exam sheet").click()
+        shots.open_folder(page, "Printable exam sheet")
         page.get_by_role("button", name="Exam sheet", exact=True).wait_for(state="visible")
         click(page, "Exam sheet")                                       # no exercise shown, none typed
         page.get_by_text("open an exercise or type exercise ids first").first.wait_for(timeout=10000)

@@ -111,7 +111,7 @@ def test_check_my_answer_in_the_exercises_tab(lab, browser):
         m22 = panel.solution.answers["M"][1, 1]
         shots.select_tab(page, "Exercises")
         shots.wait_until(lambda: shots.selected_tab(page) == "Exercises", 10, "the Exercises tab")
-        page.get_by_text("Check my answer", exact=True).locator("visible=true").first.click()    # open the folder
+        shots.open_folder(page, "Check my answer")
         choose(page, "Entry", f"M[2,2] · step {k + 1}")
         text = answer(page, str(m22).replace("**", "^"), "right")
         assert "right" in text
@@ -160,7 +160,7 @@ def test_presenter_mode_at_150_percent(lab, browser, tmp_path):
         math_off, height_off = page.evaluate(MATH_PX)
         label_off = page.evaluate(LABEL_PX)
         assert math_off < 18.0
-        page.get_by_text("Display", exact=True).first.click()
+        shots.open_folder(page, "Display")
         # the box is verified ticked after the click (a click lost while the panel's layout still
         # moves is made again; it would otherwise go unnoticed until the timeout below)
         shots.set_checkbox(page.get_by_role("checkbox", name="Presenter mode"))

@@ -190,6 +190,25 @@ def field(page, label: str):
                         "/ancestor::div[contains(@class,'mantine-Flex-root')][1]//input").first
 
 
+#: true once no height transition (a folder opening or closing) has run for four polls in a row
+_STILL = ("() => { const moving = document.getAnimations().some(a => a.playState === 'running'"
+          " && a.transitionProperty === 'height');"
+          " window.__r2still = moving ? 0 : (window.__r2still || 0) + 1; return window.__r2still >= 4; }")
+
+
+def open_folder(page, title: str, timeout: float = 10.0) -> None:
+    """Open the side panel's folder ``title`` as a user does, by clicking its title (nothing when
+    it is open), and wait until it has finished opening: a folder grows for 0.2 s, longer on a
+    busy machine, and a click meanwhile can land where a control was a frame before (and be lost)."""
+    head = (page.get_by_text(title, exact=True).locator("visible=true")
+            .filter(has=page.locator("svg.tabler-icon")).first)
+    if head.locator("svg.tabler-icon-chevron-down").count():
+        head.click()
+    head.locator("svg.tabler-icon-chevron-up").wait_for(state="attached", timeout=timeout * 1000)
+    page.evaluate("() => { window.__r2still = 0; }")
+    page.wait_for_function(_STILL, polling=50, timeout=timeout * 1000)
+
+
 def choose(page, label: str, option: str) -> None:
     """Pick ``option`` in the labelled dropdown, as a user does (open the list, click the option)."""
     field(page, label).click()

@@ -203,9 +203,8 @@ def parameter_box(page, session, name: str):
     """The input of a parameter field, with the Parameters folder opened if it is closed."""
     unit = session.robot.parameters[name].unit
     box = shots.field(page, f"{name} [{unit}]" if unit else name)
-    if not box.is_visible():
-        page.get_by_text("Parameters", exact=True).first.click()
-        box.wait_for(state="visible", timeout=5000)
+    shots.open_folder(page, "Parameters")
+    box.wait_for(state="visible", timeout=5000)
     return box
 
 
