@@ -10,6 +10,7 @@ figures: ``python -m benchmarks.load``, docs/viewer.md.)
 This module's top level imports little: a worker imports it to find ``hold_the_lock``.
 """
 import os
+import pickle
 import statistics
 import time
 
@@ -130,3 +131,28 @@ def test_job_slots_are_handed_out_in_turn():
     slots.release()
     thread.join(5)
     assert order[0] == "other", order
+
+
+class _Pipe:
+    """A worker's end of its pipe: one call to run, then the end; ``send`` fails as given."""
+
+    def __init__(self, *failures):
+        self.calls, self.failures, self.sent = [(abs, (-2,), {})], list(failures), []
+
+    def recv(self):
+        return self.calls.pop(0) if self.calls else None
+
+    def send(self, reply):
+        if self.failures:
+            raise self.failures.pop(0)
+        self.sent.append(reply)
+
+
+def test_a_result_that_does_not_pickle_is_reported_and_a_closed_pipe_ends_the_worker_quietly():
+    from app.viewer import worker
+    pipe = _Pipe(pickle.PicklingError("cannot pickle 'generator' object"))
+    worker._serve(pipe, 0)
+    assert pipe.sent == [("unportable", "the result of abs does not pickle: cannot pickle 'generator' object")]
+    pipe = _Pipe(BrokenPipeError(32, "Broken pipe"))          # the server stopped meanwhile
+    worker._serve(pipe, 0)                                      # returns, nothing printed, nothing raised
+    assert pipe.sent == []

@@ -213,8 +213,13 @@ def _serve(conn, nice: int) -> None:
             reply = ("error", _portable(exc))
         try:
             conn.send(reply)
+        except OSError:                     # the server closed the pipe (stopped, or the job cancelled)
+            return
         except Exception as exc:            # the result does not pickle: the server runs it itself
-            conn.send(("unportable", f"the result of {getattr(fn, '__name__', fn)} does not pickle: {exc}"))
+            try:
+                conn.send(("unportable", f"the result of {getattr(fn, '__name__', fn)} does not pickle: {exc}"))
+            except OSError:
+                return
 
 
 # ---------------------------------------------------------------------------------- in the server
