@@ -33,7 +33,7 @@ def test_an_emptied_field_waits_longer_than_a_typed_one():
     handle, committed, refused = FakeText("10"), [], []
     done = threading.Event()
     field = CommittedField(handle, parse_number, committed.append,
-                           lambda message: (refused.append(message), done.set()), delay=0.05, empty_delay=0.6)
+                           lambda message: (refused.append(message), done.set()), delay=0.05, empty_delay=1.5)
     handle.type("")
     assert not done.wait(0.3), "an emptied field was refused after the short pause"
     handle.type("12")                         # the user types after thinking: taken, no refusal
