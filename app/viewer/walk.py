@@ -10,6 +10,8 @@ reveal steps, open an exercise and a variant, play a throw, reload). After each 
   scene nodes, and no node of an earlier drawing is left in the browser;
 - the header and the Model panel belong to the selected robot;
 - a good parameter value reaches the model, a bad one is refused and the field restored;
+- a reload shows the robot of the address and, unless an exercise (which sets its own values)
+  is open, the parameters the address holds (``p.m1=...``) and the robot file's for the others;
 - no exception in the server's output, no ``pageerror`` in the browser;
 - the page answers (the tab is ready again) within ``ANSWER_SECONDS`` (longer while a model is
   derived for the first time).
@@ -32,6 +34,7 @@ import numpy as np
 
 from app.scene import _rot, _vec
 from app.viewer import screenshot as shots
+from app.viewer import url_state
 
 ANSWER_SECONDS = 15.0         # the page is ready again after an action within this time (generous:
                               # a 2-core machine shared with other jobs)
@@ -429,9 +432,16 @@ class Walk:
         self._wait_ready(opening=True)
         shots.hide_notifications(self.page)
         shots.wait_until(lambda: old.closed, 10, "the old tab's session to close")
-        wanted = dict(re.findall(r"[?&](\w+)=([^&]*)", query))
+        wanted = url_state.parse_query(query)
         if wanted.get("robot") and self.session.robot_name != wanted["robot"]:
             self._violation(f"reload of {query} shows {self.session.robot_name}")
+        elif "exercise" not in wanted:
+            expected = self.session.robot.parameter_values()
+            expected.update({url_state.parameter_name(k): float(v) for k, v in wanted.items()
+                             if url_state.parameter_name(k)})
+            wrong = {k: v for k, v in self.session.params.items() if abs(v - expected[k]) > 1e-12 * max(1.0, abs(v))}
+            if wrong:
+                self._violation(f"reload of {query} shows the parameters {wrong}, expected {expected}")
 
     def _tab_titles(self) -> List[str]:
         return self.page.evaluate("() => [...document.querySelector('[role=tablist]').querySelectorAll('[role=tab]')]"
